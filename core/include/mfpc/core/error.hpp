@@ -1,0 +1,24 @@
+#pragma once
+
+#include <stdexcept>
+#include <string>
+
+namespace mfpc {
+
+// The one error type of the library. `where` names the thing that failed (a file, "file:line",
+// or a config key such as "fovea.json: structures[1].outer_size"); `reason` says what is wrong
+// with it. what() is "where: reason", the line the command line prints after "mfpc: ".
+class Error : public std::runtime_error {
+public:
+    Error(std::string where, std::string reason);
+    explicit Error(std::string reason);
+
+    const std::string& where() const noexcept { return where_; }
+    const std::string& reason() const noexcept { return reason_; }
+
+private:
+    std::string where_;
+    std::string reason_;
+};
+
+}  // namespace mfpc
