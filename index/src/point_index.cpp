@@ -1,0 +1,146 @@
+#include "mfpc/index/point_index.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <mutex>
+#include <string>
+
+#include <openvdb/openvdb.h>
+#include <openvdb/tools/PointIndexGrid.h>
+#include <tbb/parallel_for.h>
+#include <tbb/parallel_sort.h>
+
+#include "mfpc/core/error.hpp"
+
+namespace mfpc {
+
+namespace {
+
+// OpenVDB's point-array concept over our packed float xyz, without a copy.
+struct PointArray {
+    using PosType = openvdb::Vec3R;
+    std::span<const Point> points;
+    std::size_t size() const { return points.size(); }
+    void getPos(std::size_t n, PosType& xyz) const
+    {
+        const Point& p = points[n];
+        xyz = PosType(p.x(), p.y(), p.z());
+    }
+};
+
+void initialize_openvdb()
+{
+    static std::once_flag once;
+    std::call_once(once, [] { openvdb::initialize(); });
+}
+
+}  // namespace
+
+struct PointIndex::Grid {
+    openvdb::math::Transform::Ptr transform;
+    openvdb::tools::PointIndexGrid::Ptr grid;
+};
+
+PointIndex::PointIndex(std::span<const Point> points, const PointIndexParams& params)
+    : points_(points), params_(params), grid_(std::make_unique<Grid>())
+{
+    if (!(params.voxel_size > 0.0f) || !std::isfinite(params.voxel_size)) {
+        throw Error("index.voxel_size", "must be a positive number, got " + std::to_string(params.voxel_size));
+    }
+    if (points.size() >= std::numeric_limits<std::uint32_t>::max()) {
+        throw Error("index", "clouds of 2^32 points or more are not supported");
+    }
+    initialize_openvdb();
+    grid_->transform = openvdb::math::Transform::createLinearTransform(params.voxel_size);
+    grid_->grid = openvdb::tools::createPointIndexGrid<openvdb::tools::PointIndexGrid>(PointArray{points},
+                                                                                      *grid_->transform);
+
+    // Flatten the leaves into a table the kernels can walk in parallel without OpenVDB headers.
+    std::vector<const openvdb::tools::PointIndexGrid::TreeType::LeafNodeType*> nodes;
+    nodes.reserve(grid_->grid->tree().leafCount());
+    for (auto leaf = grid_->grid->tree().cbeginLeaf(); leaf; ++leaf) {
+        if (!leaf->indices().empty()) nodes.push_back(leaf.getLeaf());
+    }
+    // The tree's own iteration order is fixed for a given set of leaves; sorting by origin makes
+    // the table independent of how the grid was built.
+    std::sort(nodes.begin(), nodes.end(), [](const auto* a, const auto* b) { return a->origin() < b->origin(); });
+
+    leaves_.resize(nodes.size());
+    std::uint32_t offset = 0;
+    for (std::size_t i = 0; i < nodes.size(); ++i) {
+        leaves_[i].begin = offset;
+        offset += static_cast<std::uint32_t>(nodes[i]->indices().size());
+        leaves_[i].end = offset;
+    }
+    if (offset != points.size()) {
+        throw Error("index", "bucketed " + std::to_string(offset) + " of " + std::to_string(points.size()) +
+                                 " points (non-finite coordinates?)");
+    }
+    point_order_.resize(points.size());
+    tbb::parallel_for(std::size_t(0), nodes.size(), [&](std::size_t i) {
+        const auto& indices = nodes[i]->indices();
+        PointIndexLeaf& leaf = leaves_[i];
+        std::uint32_t* out = point_order_.data() + leaf.begin;
+        std::copy(indices.begin(), indices.end(), out);
+        std::sort(out, out + indices.size());
+        leaf.bounds = bounding_box(std::span<const Point>());
+        for (std::uint32_t k = leaf.begin; k < leaf.end; ++k) {
+            const Point& p = points[point_order_[k]];
+            leaf.bounds.min = leaf.bounds.min.cwiseMin(p);
+            leaf.bounds.max = leaf.bounds.max.cwiseMax(p);
+        }
+    });
+}
+
+PointIndex::~PointIndex() = default;
+PointIndex::PointIndex(PointIndex&&) noexcept = default;
+PointIndex& PointIndex::operator=(PointIndex&&) noexcept = default;
+
+void PointIndex::points_in_box(const Box& box, std::vector<std::uint32_t>& out) const
+{
+    out.clear();
+    if (!box.valid() || points_.empty()) return;
+    // Widen by one voxel so that rounding in world-to-index never loses a point on a face; the
+    // exact closed-box test below decides.
+    const auto& xform = *grid_->transform;
+    const openvdb::Coord lo = xform.worldToIndexCellCentered(
+                                  openvdb::Vec3d(box.min.x(), box.min.y(), box.min.z())) - openvdb::Coord(1);
+    const openvdb::Coord hi = xform.worldToIndexCellCentered(
+                                  openvdb::Vec3d(box.max.x(), box.max.y(), box.max.z())) + openvdb::Coord(1);
+    openvdb::tools::PointIndexGrid::ConstAccessor accessor = grid_->grid->getConstAccessor();
+    openvdb::tools::PointIndexIterator<> it(openvdb::CoordBBox(lo, hi), accessor);
+    for (; it; ++it) {
+        if (box.contains(points_[*it])) out.push_back(*it);
+    }
+    std::sort(out.begin(), out.end());
+}
+
+void PointIndex::points_in_radius(const Point& center, float radius, std::vector<std::uint32_t>& out) const
+{
+    out.clear();
+    if (!(radius >= 0.0f) || points_.empty()) return;
+    const Eigen::Vector3f extent = Eigen::Vector3f::Constant(radius);
+    const float radius_squared = radius * radius;
+    const auto& xform = *grid_->transform;
+    const Eigen::Vector3f lo_world = center - extent;
+    const Eigen::Vector3f hi_world = center + extent;
+    const openvdb::Coord lo = xform.worldToIndexCellCentered(
+                                  openvdb::Vec3d(lo_world.x(), lo_world.y(), lo_world.z())) - openvdb::Coord(1);
+    const openvdb::Coord hi = xform.worldToIndexCellCentered(
+                                  openvdb::Vec3d(hi_world.x(), hi_world.y(), hi_world.z())) + openvdb::Coord(1);
+    openvdb::tools::PointIndexGrid::ConstAccessor accessor = grid_->grid->getConstAccessor();
+    openvdb::tools::PointIndexIterator<> it(openvdb::CoordBBox(lo, hi), accessor);
+    for (; it; ++it) {
+        if ((points_[*it] - center).squaredNorm() <= radius_squared) out.push_back(*it);
+    }
+    std::sort(out.begin(), out.end());
+}
+
+std::size_t PointIndex::memory_bytes() const
+{
+    return static_cast<std::size_t>(grid_->grid->memUsage()) + leaves_.capacity() * sizeof(PointIndexLeaf) +
+           point_order_.capacity() * sizeof(std::uint32_t);
+}
+
+}  // namespace mfpc
