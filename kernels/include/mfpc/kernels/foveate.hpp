@@ -1,0 +1,82 @@
+#pragma once
+
+#include <cstddef>
+#include <cstdint>
+#include <span>
+#include <vector>
+
+#include "mfpc/core/foveation_config.hpp"
+#include "mfpc/core/point_cloud.hpp"
+#include "mfpc/index/point_index.hpp"
+
+namespace mfpc {
+
+// The members of every level region (structure l, level k) of a foveation, before downsampling.
+// Region r = l * (m + 1) + k. Members are point indices into the indexed cloud, in the index's
+// point order (leaf by leaf), which is fixed for a given index: the same at any thread count.
+struct FoveationRegions {
+    int structures = 0;
+    int levels = 0;  // m
+    std::vector<std::uint32_t> offsets;  // region_count() + 1 entries
+    std::vector<std::uint32_t> members;
+    // Points covered by at least one structure, and (point, structure) coverage pairs. Their
+    // difference is what redundancy treatment removes: |raw| - |mfpc| before downsampling.
+    std::size_t covered_points = 0;
+    std::size_t coverage_pairs = 0;
+
+    int region_count() const { return structures * (levels + 1); }
+    int region_id(int structure, int level) const { return structure * (levels + 1) + level; }
+    std::span<const std::uint32_t> region(int structure, int level) const
+    {
+        const int r = region_id(structure, level);
+        return std::span<const std::uint32_t>(members).subspan(offsets[std::size_t(r)],
+                                                               offsets[std::size_t(r) + 1] - offsets[std::size_t(r)]);
+    }
+    std::size_t redundant_points() const { return coverage_pairs - covered_points; }
+};
+
+// Labels the indexed cloud with the level regions of `structures` (paper Algorithm 1, Eq. 6):
+//  - single: only structure `single_structure`; other structures' regions stay empty;
+//  - raw:    every structure on its own: a point covered by several appears once per structure;
+//  - mfpc:   redundancy treatment: each covered point once, in the densest region that covers it
+//            (smallest d_k; then the higher level; then the earlier structure).
+// Points outside every outer box belong to no region. Walks the index's leaves: a leaf whose tight
+// bounds lie wholly inside one region (or outside) of every structure is labelled without testing
+// its points; only leaves straddling a box face test points. All structures must have the same
+// number of levels. mode none is not a labelling (see foveate()) and throws.
+FoveationRegions foveation_regions(const PointIndex& index, std::span<const FoveatedStructure> structures,
+                                   FoveationMode mode, int single_structure = 0);
+
+struct RegionSummary {
+    int structure = -1;
+    int level = -1;
+    float density = 0.0f;  // d_k, voxel size (0: no downsampling)
+    std::size_t points_before = 0;
+    std::size_t points_after = 0;
+};
+
+// A foveated cloud: the kept points (with normals, colours and source positions carried over),
+// the region label of each, and one summary per region.
+struct FoveatedCloud {
+    PointCloud cloud;
+    std::vector<RegionLabel> labels;
+    std::vector<RegionSummary> regions;
+    std::size_t points_before_downsampling = 0;
+    std::size_t redundant_points = 0;  // |raw| - |mfpc| before downsampling (see FoveationRegions)
+};
+
+// Downsamples each region on its own with its structure's d_k; regions never mix. A voxel grid
+// anchored at the world origin, voxel (i, j, k) = floor(p / d_k) per axis computed in double:
+//  - voxel:   the centroid of the voxel's points (normals averaged and renormalised, colours
+//             averaged; the source position is the voxel's lowest-index point's);
+//  - uniform: the voxel's original point nearest the voxel centre (ties: the lowest index).
+// Output: regions in order, within a region voxels in (i, j, k) order; d_k = 0 keeps every member.
+FoveatedCloud downsample_regions(const PointCloud& cloud, const FoveationRegions& regions,
+                                 std::span<const FoveatedStructure> structures, Downsample downsample);
+
+// Labelling then downsampling; mode none returns the cloud unchanged with no labels (-1, -1).
+// The index must have been built over cloud.points.
+FoveatedCloud foveate(const PointCloud& cloud, const PointIndex& index, const FoveationConfig& config,
+                      FoveationMode mode, int single_structure = 0);
+
+}  // namespace mfpc

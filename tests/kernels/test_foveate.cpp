@@ -1,0 +1,316 @@
+// The index-based foveation kernels against the reference Algorithm 1 (tests/support), on random
+// clouds and structures with fixed seeds and on the shared real scene.
+#include <algorithm>
+#include <map>
+#include <random>
+#include <set>
+
+#include <gtest/gtest.h>
+#include <tbb/global_control.h>
+
+#include "mfpc/core/cloud_io.hpp"
+#include "mfpc/core/error.hpp"
+#include "mfpc/kernels/foveate.hpp"
+#include "random_clouds.hpp"
+#include "reference_foveation.hpp"
+#include "test_support.hpp"
+
+namespace mfpc {
+namespace {
+
+using reference::RawLabel;
+
+std::vector<FoveatedStructure> random_structures(std::uint32_t seed, int count, int levels)
+{
+    std::mt19937 rng(seed);
+    std::vector<FoveatedStructure> structures;
+    for (int i = 0; i < count; ++i) structures.push_back(test::random_structure(rng, levels));
+    return structures;
+}
+
+// Per-point labels from regions where each point appears at most once.
+std::vector<RegionLabel> labels_from(const FoveationRegions& regions, std::size_t point_count)
+{
+    std::vector<RegionLabel> labels(point_count);
+    for (int s = 0; s < regions.structures; ++s) {
+        for (int k = 0; k <= regions.levels; ++k) {
+            for (std::uint32_t point : regions.region(s, k)) {
+                EXPECT_EQ(labels[point], RegionLabel{}) << "point " << point << " appears twice";
+                labels[point] = {std::int16_t(s), std::int16_t(k)};
+            }
+        }
+    }
+    return labels;
+}
+
+std::vector<RawLabel> raw_from(const FoveationRegions& regions)
+{
+    std::vector<RawLabel> raw;
+    for (int s = 0; s < regions.structures; ++s) {
+        for (int k = 0; k <= regions.levels; ++k) {
+            for (std::uint32_t point : regions.region(s, k)) raw.push_back({point, {std::int16_t(s), std::int16_t(k)}});
+        }
+    }
+    return raw;
+}
+
+void sort_raw(std::vector<RawLabel>& raw)
+{
+    std::sort(raw.begin(), raw.end(), [](const RawLabel& a, const RawLabel& b) {
+        return std::tie(a.label.structure, a.point, a.label.level) < std::tie(b.label.structure, b.point, b.label.level);
+    });
+}
+
+struct Case {
+    std::uint32_t seed;
+    int structures;
+    int levels;
+    float index_voxel;
+};
+
+class FoveateAgainstReference : public ::testing::TestWithParam<Case> {};
+
+TEST_P(FoveateAgainstReference, LabelsEqualReferencePointForPoint)
+{
+    const Case c = GetParam();
+    const auto points = test::random_points(30000, c.seed);
+    const auto structures = random_structures(c.seed * 31 + 1, c.structures, c.levels);
+    const PointIndex index(points, {c.index_voxel});
+
+    const FoveationRegions treated = foveation_regions(index, structures, FoveationMode::mfpc);
+    EXPECT_EQ(labels_from(treated, points.size()), reference::reference_mfpc_labels(points, structures));
+
+    const FoveationRegions raw = foveation_regions(index, structures, FoveationMode::raw);
+    auto raw_labels = raw_from(raw);
+    sort_raw(raw_labels);
+    auto expected_raw = reference::reference_raw_labels(points, structures);
+    sort_raw(expected_raw);
+    EXPECT_EQ(raw_labels, expected_raw);
+
+    std::size_t single_total = 0;
+    for (int s = 0; s < c.structures; ++s) {
+        const FoveationRegions single = foveation_regions(index, structures, FoveationMode::single, s);
+        const auto levels = reference::reference_single_levels(points, structures[std::size_t(s)]);
+        const auto labels = labels_from(single, points.size());
+        for (std::size_t i = 0; i < points.size(); ++i) {
+            ASSERT_EQ(labels[i].level, levels[i]) << "structure " << s << " point " << i;
+            if (levels[i] >= 0) {
+                ASSERT_EQ(labels[i].structure, s);
+            }
+        }
+        single_total += single.members.size();
+    }
+
+    // The identities of the issue: |raw| = Σ |single_j|; redundant = |raw| - |mfpc|; mfpc ⊆ raw.
+    EXPECT_EQ(raw.members.size(), single_total);
+    EXPECT_EQ(treated.redundant_points(), raw.members.size() - treated.members.size());
+    EXPECT_EQ(raw.redundant_points(), treated.redundant_points());
+    const std::set<std::uint32_t> raw_points(raw.members.begin(), raw.members.end());
+    for (std::uint32_t point : treated.members) EXPECT_TRUE(raw_points.count(point));
+    EXPECT_EQ(raw_points.size(), treated.members.size());
+}
+
+TEST_P(FoveateAgainstReference, DownsamplingEqualsReferencePerRegion)
+{
+    const Case c = GetParam();
+    const auto points = test::random_points(30000, c.seed + 100);
+    const auto structures = random_structures(c.seed * 17 + 3, c.structures, c.levels);
+    PointCloud cloud;
+    cloud.points = points;
+    cloud.width = std::uint32_t(points.size());
+    const PointIndex index(cloud.points, {c.index_voxel});
+    const FoveationRegions regions = foveation_regions(index, structures, FoveationMode::mfpc);
+
+    for (const Downsample mode : {Downsample::voxel, Downsample::uniform}) {
+        const FoveatedCloud result = downsample_regions(cloud, regions, structures, mode);
+        ASSERT_EQ(result.cloud.size(), result.labels.size());
+        std::size_t begin = 0;
+        for (const RegionSummary& summary : result.regions) {
+            const auto members = regions.region(summary.structure, summary.level);
+            const auto expected = reference::reference_downsample(points, members, summary.density, mode);
+            ASSERT_EQ(summary.points_after, expected.points.size())
+                << to_string(mode) << " structure " << summary.structure << " level " << summary.level;
+            std::vector<Point> got(result.cloud.points.begin() + std::ptrdiff_t(begin),
+                                   result.cloud.points.begin() + std::ptrdiff_t(begin + summary.points_after));
+            std::vector<std::uint32_t> got_sources(
+                result.cloud.source_index.begin() + std::ptrdiff_t(begin),
+                result.cloud.source_index.begin() + std::ptrdiff_t(begin + summary.points_after));
+            for (std::size_t i = begin; i < begin + summary.points_after; ++i) {
+                ASSERT_EQ(result.labels[i], (RegionLabel{std::int16_t(summary.structure), std::int16_t(summary.level)}));
+            }
+            if (mode == Downsample::voxel && summary.density > 0.0f) {
+                EXPECT_EQ(got, expected.points);  // bit for bit, in voxel order
+            } else {
+                // Kept original points: the same set (ours in voxel order, the reference's ascending).
+                std::sort(got_sources.begin(), got_sources.end());
+                EXPECT_EQ(got_sources, expected.indices);
+            }
+            begin += summary.points_after;
+        }
+        EXPECT_EQ(begin, result.cloud.size());
+    }
+}
+
+INSTANTIATE_TEST_SUITE_P(RandomSeeds, FoveateAgainstReference,
+                         ::testing::Values(Case{1, 1, 1, 0.01f}, Case{2, 2, 3, 0.01f}, Case{3, 3, 2, 0.05f},
+                                           Case{4, 5, 3, 0.02f}, Case{5, 8, 4, 0.1f}, Case{6, 2, 3, 0.003f},
+                                           Case{7, 16, 3, 0.03f}, Case{8, 4, 5, 0.01f}));
+
+TEST(Foveate, LabelsDoNotDependOnIndexVoxelSize)
+{
+    const auto points = test::random_points(20000, 42);
+    const auto structures = random_structures(43, 4, 3);
+    FoveationRegions first;
+    bool have_first = false;
+    for (const float voxel : {0.004f, 0.01f, 0.05f, 0.5f}) {
+        const PointIndex index(points, {voxel});
+        const FoveationRegions regions = foveation_regions(index, structures, FoveationMode::mfpc);
+        const auto labels = labels_from(regions, points.size());
+        if (!have_first) {
+            first = regions;
+            have_first = true;
+        }
+        EXPECT_EQ(labels, labels_from(first, points.size())) << "index voxel " << voxel;
+    }
+}
+
+TEST(Foveate, BitIdenticalAtAnyThreadCount)
+{
+    PointCloud cloud;
+    cloud.points = test::random_points(60000, 9);
+    cloud.width = std::uint32_t(cloud.size());
+    FoveationConfig config;
+    config.structures = random_structures(10, 6, 3);
+    const PointIndex index(cloud.points, {0.02f});
+
+    std::vector<FoveatedCloud> results;
+    for (const std::size_t threads : {1u, 2u, 4u}) {
+        tbb::global_control limit(tbb::global_control::max_allowed_parallelism, threads);
+        for (const Downsample mode : {Downsample::voxel, Downsample::uniform}) {
+            config.downsample = mode;
+            results.push_back(foveate(cloud, index, config, FoveationMode::mfpc));
+            results.push_back(foveate(cloud, index, config, FoveationMode::raw));
+        }
+    }
+    for (std::size_t i = 4; i < results.size(); ++i) {
+        const FoveatedCloud& a = results[i % 4];
+        const FoveatedCloud& b = results[i];
+        EXPECT_EQ(a.cloud.points, b.cloud.points) << "result " << i;
+        EXPECT_EQ(a.cloud.source_index, b.cloud.source_index) << "result " << i;
+        EXPECT_EQ(a.labels, b.labels) << "result " << i;
+    }
+}
+
+TEST(Foveate, PointsExactlyOnBoxFaces)
+{
+    FoveatedStructure s;
+    s.levels = 2;
+    s.outer_min = {0.0f, 0.0f, 0.0f};
+    s.outer_size = {1.0f, 1.0f, 1.0f};
+    s.fovea_size = {0.2f, 0.2f, 0.2f};
+    s.fovea_offset = {0.1f, -0.2f, 0.0f};
+    std::vector<Point> points;
+    // Every corner and face centre of every level box, and points a float step outside each face.
+    for (int k = 0; k <= s.levels; ++k) {
+        const Box box = s.level_box(k);
+        for (int corner = 0; corner < 8; ++corner) {
+            const Point p((corner & 1) ? box.max.x() : box.min.x(), (corner & 2) ? box.max.y() : box.min.y(),
+                          (corner & 4) ? box.max.z() : box.min.z());
+            points.push_back(p);
+            for (int axis = 0; axis < 3; ++axis) {
+                Point out = p;
+                const bool at_max = axis == 0 ? (corner & 1) : axis == 1 ? (corner & 2) : (corner & 4);
+                out[axis] = std::nextafter(p[axis], at_max ? 2.0f : -2.0f);
+                points.push_back(out);
+                Point in = p;
+                in[axis] = std::nextafter(p[axis], at_max ? -2.0f : 2.0f);
+                points.push_back(in);
+            }
+        }
+    }
+    const std::vector<FoveatedStructure> structures{s};
+    const auto expected = reference::reference_single_levels(points, s);
+    for (const float voxel : {0.01f, 0.1f, 1.0f}) {
+        const PointIndex index(points, {voxel});
+        const auto labels = labels_from(foveation_regions(index, structures, FoveationMode::mfpc), points.size());
+        for (std::size_t i = 0; i < points.size(); ++i) {
+            EXPECT_EQ(labels[i].level, expected[i]) << "point " << i << " index voxel " << voxel;
+        }
+    }
+    // A corner of the fovea box is in the fovea (closed boxes).
+    EXPECT_EQ(s.level_of(s.level_box(2).max), 2);
+}
+
+TEST(Foveate, ModeNonePassesTheCloudThrough)
+{
+    PointCloud cloud;
+    cloud.points = test::random_points(100, 3);
+    cloud.width = 100;
+    FoveationConfig config;
+    config.structures = random_structures(4, 2, 3);
+    const PointIndex index(cloud.points);
+    const FoveatedCloud result = foveate(cloud, index, config, FoveationMode::none);
+    EXPECT_EQ(result.cloud.points, cloud.points);
+    EXPECT_EQ(result.labels.size(), cloud.size());
+    EXPECT_THROW(foveation_regions(index, config.structures, FoveationMode::none), Error);
+}
+
+TEST(Foveate, RejectsContradictoryInput)
+{
+    PointCloud cloud;
+    cloud.points = test::random_points(100, 3);
+    const PointIndex index(cloud.points);
+    auto structures = random_structures(5, 2, 3);
+    structures[1].levels = 2;
+    EXPECT_THROW(foveation_regions(index, structures, FoveationMode::mfpc), Error);
+    structures[1].levels = 3;
+    EXPECT_THROW(foveation_regions(index, structures, FoveationMode::single, 2), Error);
+    EXPECT_THROW(foveation_regions(index, std::span<const FoveatedStructure>(), FoveationMode::mfpc), Error);
+
+    PointCloud other = cloud;
+    FoveationConfig config;
+    config.structures = random_structures(5, 2, 3);
+    EXPECT_THROW(foveate(other, index, config, FoveationMode::mfpc), Error);  // index of another cloud
+}
+
+TEST(Foveate, EmptyCloudGivesEmptyRegions)
+{
+    const PointCloud cloud;
+    const PointIndex index(cloud.points);
+    FoveationConfig config;
+    config.structures = random_structures(6, 2, 3);
+    const FoveatedCloud result = foveate(cloud, index, config, FoveationMode::mfpc);
+    EXPECT_TRUE(result.cloud.empty());
+    EXPECT_EQ(result.regions.size(), 8u);
+}
+
+// The shared real scene with the shipped two-carton config: the same identities, and the kernel
+// equals the reference point for point.
+TEST(Foveate, RealSceneMatchesReference)
+{
+    MFPC_SHARED_FILE_OR_SKIP(scene_path, "milk_cartoon_all_small_clorox.pcd");
+    const auto config_path = std::filesystem::path(MFPC_SOURCE_DIR) / "examples/configs/milk_pair_two.json";
+    if (!std::filesystem::exists(config_path)) GTEST_SKIP() << config_path << " is absent";
+    const PointCloud cloud = read_cloud(scene_path);
+    const FoveationConfig config = read_foveation_config(config_path);
+    const PointIndex index(cloud.points);
+
+    const FoveationRegions treated = foveation_regions(index, config.structures, FoveationMode::mfpc);
+    const FoveationRegions raw = foveation_regions(index, config.structures, FoveationMode::raw);
+    EXPECT_EQ(labels_from(treated, cloud.size()), reference::reference_mfpc_labels(cloud.points, config.structures));
+    EXPECT_GT(treated.members.size(), 1000u);
+    std::size_t single_total = 0;
+    for (int s = 0; s < int(config.structures.size()); ++s) {
+        single_total += foveation_regions(index, config.structures, FoveationMode::single, s).members.size();
+    }
+    EXPECT_EQ(raw.members.size(), single_total);
+    EXPECT_EQ(treated.redundant_points(), raw.members.size() - treated.members.size());
+
+    const FoveatedCloud result = downsample_regions(cloud, treated, config.structures, config.downsample);
+    EXPECT_LT(result.cloud.size(), treated.members.size());
+    // Every kept point's source position is a pixel of the 640x480 scan.
+    for (std::uint32_t source : result.cloud.source_index) EXPECT_LT(source, 640u * 480u);
+}
+
+}  // namespace
+}  // namespace mfpc
