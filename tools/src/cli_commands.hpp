@@ -1,0 +1,14 @@
+#pragma once
+
+#include <CLI/CLI.hpp>
+
+#include "cli_common.hpp"
+
+namespace mfpc::cli {
+
+// Each adds its subcommand to the app; the subcommand's callback does the work and throws
+// mfpc::Error on failure.
+void add_info_command(CLI::App& app, const GlobalOptions& global);
+void add_foveate_command(CLI::App& app, const GlobalOptions& global);
+
+}  // namespace mfpc::cli

@@ -1,0 +1,44 @@
+#include "cli_common.hpp"
+
+#include <iostream>
+
+#include "mfpc/core/atomic_file.hpp"
+
+namespace mfpc::cli {
+
+void write_json(const GlobalOptions& global, const nlohmann::ordered_json& result)
+{
+    if (global.json_path.empty()) return;
+    if (global.json_path == "-") {
+        std::cout << result.dump(2) << '\n';
+        return;
+    }
+    write_file_atomically(global.json_path, [&](std::ofstream& out) { out << result.dump(2) << '\n'; });
+}
+
+void warn(const std::string& message) { std::cerr << "mfpc: warning: " << message << '\n'; }
+
+std::string group_digits(std::size_t value)
+{
+    std::string digits = std::to_string(value);
+    for (int i = int(digits.size()) - 3; i > 0; i -= 3) digits.insert(std::size_t(i), ",");
+    return digits;
+}
+
+std::string format_fixed(double value, int decimals)
+{
+    char buffer[64];
+    std::snprintf(buffer, sizeof buffer, "%.*f", decimals, value);
+    return buffer;
+}
+
+void print_rows(const std::vector<std::pair<std::string, std::string>>& rows)
+{
+    std::size_t width = 0;
+    for (const auto& row : rows) width = std::max(width, row.first.size());
+    for (const auto& [key, value] : rows) {
+        std::cout << key << std::string(width - key.size() + 2, ' ') << value << '\n';
+    }
+}
+
+}  // namespace mfpc::cli

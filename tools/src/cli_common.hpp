@@ -1,0 +1,48 @@
+#pragma once
+
+#include <chrono>
+#include <cstdio>
+#include <string>
+#include <vector>
+
+#include <nlohmann/json.hpp>
+
+namespace mfpc::cli {
+
+// Options every command sees.
+struct GlobalOptions {
+    int threads = 0;        // 0: all cores
+    std::string json_path;  // "" none, "-" stdout
+    bool quiet = false;
+};
+
+// True when the human-readable output should go to stdout (it yields stdout to --json -).
+inline bool print_table(const GlobalOptions& global) { return !global.quiet && global.json_path != "-"; }
+
+// Writes the machine-readable result: to stdout for "-", else atomically to the file.
+void write_json(const GlobalOptions& global, const nlohmann::ordered_json& result);
+
+void warn(const std::string& message);
+
+// "307,200"
+std::string group_digits(std::size_t value);
+std::string format_fixed(double value, int decimals);
+
+// A two-column table with aligned keys.
+void print_rows(const std::vector<std::pair<std::string, std::string>>& rows);
+
+class Stopwatch {
+public:
+    double lap_ms()
+    {
+        const auto now = std::chrono::steady_clock::now();
+        const double ms = std::chrono::duration<double, std::milli>(now - last_).count();
+        last_ = now;
+        return ms;
+    }
+
+private:
+    std::chrono::steady_clock::time_point last_ = std::chrono::steady_clock::now();
+};
+
+}  // namespace mfpc::cli

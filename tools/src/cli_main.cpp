@@ -1,0 +1,69 @@
+// The mfpc command line: parses, calls the library, prints. Errors from the library arrive as
+// mfpc::Error and leave as one line "mfpc: <where>: <reason>" with exit code 1; usage errors exit 2.
+
+#include <exception>
+#include <iostream>
+#include <memory>
+#include <new>
+
+#include <CLI/CLI.hpp>
+#include <tbb/global_control.h>
+#include <tbb/info.h>
+
+#include "cli_commands.hpp"
+#include "mfpc/core/error.hpp"
+
+int main(int argc, char** argv)
+{
+    using namespace mfpc::cli;
+
+    CLI::App app{"mfpc: multifoveated point clouds and 3D object recognition\n"
+                 "(Oliveira et al., \"Efficient 3D Objects Recognition Using Multifoveated Point Clouds\", "
+                 "Sensors 2018)",
+                 "mfpc"};
+    app.set_version_flag("--version", std::string("mfpc ") + MFPC_VERSION);
+    app.require_subcommand(1);
+    app.fallthrough();
+
+    GlobalOptions global;
+    app.add_option("--threads", global.threads, "Worker threads (default: all cores)")
+        ->check(CLI::Range(1, 4096));
+    app.add_option("--json", global.json_path, "Also write the result as JSON to PATH ('-' for stdout)")
+        ->type_name("PATH");
+    app.add_flag("-q,--quiet", global.quiet, "Print no table (errors and warnings still go to stderr)");
+
+    add_info_command(app, global);
+    add_foveate_command(app, global);
+
+    // The thread limit must be in force before any command runs, so it is set from a pre-parse
+    // callback: after the options are read, before the subcommand callbacks.
+    std::unique_ptr<tbb::global_control> threads;
+    app.parse_complete_callback([&] {
+        const int count = global.threads > 0 ? global.threads : tbb::info::default_concurrency();
+        threads = std::make_unique<tbb::global_control>(tbb::global_control::max_allowed_parallelism,
+                                                        std::size_t(count));
+    });
+
+    try {
+        app.parse(argc, argv);
+    } catch (const CLI::CallForHelp& e) {
+        return app.exit(e);
+    } catch (const CLI::CallForAllHelp& e) {
+        return app.exit(e);
+    } catch (const CLI::CallForVersion& e) {
+        return app.exit(e);
+    } catch (const CLI::ParseError& e) {
+        std::cerr << "mfpc: " << e.what() << "\nRun 'mfpc --help' for usage.\n";
+        return 2;
+    } catch (const mfpc::Error& e) {
+        std::cerr << "mfpc: " << e.what() << '\n';
+        return 1;
+    } catch (const std::bad_alloc&) {
+        std::cerr << "mfpc: out of memory\n";
+        return 1;
+    } catch (const std::exception& e) {
+        std::cerr << "mfpc: internal error: " << e.what() << '\n';
+        return 1;
+    }
+    return 0;
+}
