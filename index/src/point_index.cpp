@@ -68,27 +68,47 @@ PointIndex::PointIndex(std::span<const Point> points, const PointIndexParams& pa
 
     leaves_.resize(nodes.size());
     std::uint32_t offset = 0;
+    std::uint32_t voxel_offset = 0;
     for (std::size_t i = 0; i < nodes.size(); ++i) {
         leaves_[i].begin = offset;
+        leaves_[i].voxel_begin = voxel_offset;
         offset += static_cast<std::uint32_t>(nodes[i]->indices().size());
+        voxel_offset += static_cast<std::uint32_t>(nodes[i]->onVoxelCount());
         leaves_[i].end = offset;
+        leaves_[i].voxel_end = voxel_offset;
     }
     if (offset != points.size()) {
         throw Error("index", "bucketed " + std::to_string(offset) + " of " + std::to_string(points.size()) +
                                  " points (non-finite coordinates?)");
     }
     point_order_.resize(points.size());
+    ordered_points_.resize(points.size());
+    voxels_.resize(voxel_offset);
     tbb::parallel_for(std::size_t(0), nodes.size(), [&](std::size_t i) {
-        const auto& indices = nodes[i]->indices();
         PointIndexLeaf& leaf = leaves_[i];
-        std::uint32_t* out = point_order_.data() + leaf.begin;
-        std::copy(indices.begin(), indices.end(), out);
-        std::sort(out, out + indices.size());
         leaf.bounds = bounding_box(std::span<const Point>());
-        for (std::uint32_t k = leaf.begin; k < leaf.end; ++k) {
-            const Point& p = points[point_order_[k]];
-            leaf.bounds.min = leaf.bounds.min.cwiseMin(p);
-            leaf.bounds.max = leaf.bounds.max.cwiseMax(p);
+        std::uint32_t cursor = leaf.begin;
+        std::uint32_t voxel = leaf.voxel_begin;
+        for (auto value = nodes[i]->cbeginValueOn(); value; ++value, ++voxel) {
+            const openvdb::tools::PointIndexGrid::TreeType::LeafNodeType::ValueType* begin = nullptr;
+            const openvdb::tools::PointIndexGrid::TreeType::LeafNodeType::ValueType* end = nullptr;
+            nodes[i]->getIndices(value.pos(), begin, end);
+            PointIndexVoxel& v = voxels_[voxel];
+            v.begin = cursor;
+            std::uint32_t* out = point_order_.data() + cursor;
+            std::copy(begin, end, out);
+            cursor += static_cast<std::uint32_t>(end - begin);
+            v.end = cursor;
+            std::sort(out, point_order_.data() + cursor);
+            v.bounds = bounding_box(std::span<const Point>());
+            for (std::uint32_t k = v.begin; k < v.end; ++k) {
+                const Point& p = points[point_order_[k]];
+                ordered_points_[k] = p;
+                v.bounds.min = v.bounds.min.cwiseMin(p);
+                v.bounds.max = v.bounds.max.cwiseMax(p);
+            }
+            leaf.bounds.min = leaf.bounds.min.cwiseMin(v.bounds.min);
+            leaf.bounds.max = leaf.bounds.max.cwiseMax(v.bounds.max);
         }
     });
 }
@@ -140,7 +160,8 @@ void PointIndex::points_in_radius(const Point& center, float radius, std::vector
 std::size_t PointIndex::memory_bytes() const
 {
     return static_cast<std::size_t>(grid_->grid->memUsage()) + leaves_.capacity() * sizeof(PointIndexLeaf) +
-           point_order_.capacity() * sizeof(std::uint32_t);
+           voxels_.capacity() * sizeof(PointIndexVoxel) + point_order_.capacity() * sizeof(std::uint32_t) +
+           ordered_points_.capacity() * sizeof(Point);
 }
 
 }  // namespace mfpc

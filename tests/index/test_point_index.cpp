@@ -23,23 +23,41 @@ TEST(PointIndex, EveryPointOnceInTightLeaves)
     EXPECT_EQ(order, expected);
 
     std::size_t covered = 0;
+    std::uint32_t next_voxel = 0;
     for (const PointIndexLeaf& leaf : index.leaves()) {
         ASSERT_GT(leaf.size(), 0u);
         covered += leaf.size();
-        Box tight = bounding_box(std::span<const Point>());
-        for (std::uint32_t k = leaf.begin; k < leaf.end; ++k) {
-            const Point& p = points[index.point_order()[k]];
-            tight.min = tight.min.cwiseMin(p);
-            tight.max = tight.max.cwiseMax(p);
-            if (k > leaf.begin) {
-                EXPECT_LT(index.point_order()[k - 1], index.point_order()[k]);
+        // The leaf's voxels partition its points, each voxel ascending, with tight bounds.
+        ASSERT_EQ(leaf.voxel_begin, next_voxel);
+        next_voxel = leaf.voxel_end;
+        std::uint32_t cursor = leaf.begin;
+        Box leaf_tight = bounding_box(std::span<const Point>());
+        for (std::uint32_t v = leaf.voxel_begin; v < leaf.voxel_end; ++v) {
+            const PointIndexVoxel& voxel = index.voxels()[v];
+            ASSERT_EQ(voxel.begin, cursor);
+            cursor = voxel.end;
+            Box tight = bounding_box(std::span<const Point>());
+            for (std::uint32_t k = voxel.begin; k < voxel.end; ++k) {
+                const Point& p = points[index.point_order()[k]];
+                tight.min = tight.min.cwiseMin(p);
+                tight.max = tight.max.cwiseMax(p);
+                if (k > voxel.begin) {
+                    EXPECT_LT(index.point_order()[k - 1], index.point_order()[k]);
+                }
             }
+            EXPECT_EQ(tight.min, voxel.bounds.min);
+            EXPECT_EQ(tight.max, voxel.bounds.max);
+            EXPECT_LE(voxel.bounds.size().maxCoeff(), 0.05f + 1e-5f);
+            leaf_tight.min = leaf_tight.min.cwiseMin(tight.min);
+            leaf_tight.max = leaf_tight.max.cwiseMax(tight.max);
         }
-        EXPECT_EQ(tight.min, leaf.bounds.min);
-        EXPECT_EQ(tight.max, leaf.bounds.max);
+        EXPECT_EQ(cursor, leaf.end);
+        EXPECT_EQ(leaf_tight.min, leaf.bounds.min);
+        EXPECT_EQ(leaf_tight.max, leaf.bounds.max);
         // A leaf is 8 voxels a side.
-        EXPECT_LE((leaf.bounds.size().array()).maxCoeff(), 8 * 0.05f + 1e-5f);
+        EXPECT_LE(leaf.bounds.size().maxCoeff(), 8 * 0.05f + 1e-5f);
     }
+    EXPECT_EQ(next_voxel, index.voxels().size());
     EXPECT_EQ(covered, points.size());
 }
 

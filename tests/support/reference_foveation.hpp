@@ -17,8 +17,9 @@
 //  - Raw mode: each structure on its own, concatenated in structure order; a point in several
 //    structures appears once per structure.
 //  - Downsampling: a voxel grid aligned at the world origin. The voxel of p is
-//    floor(double(p) / double(d)) per axis, computed in double (so no float division decides which
-//    voxel a point falls in) and stored as a 64-bit integer. voxel mode keeps the centroid of each
+//    floor(double(p) * (1.0 / double(d))) per axis, computed in double and stored as a 64-bit
+//    integer: a multiplication by the inverse voxel size, as PCL's VoxelGrid and UniformSampling
+//    do (in float there), rather than a division. voxel mode keeps the centroid of each
 //    voxel (summed in double, in increasing point index, rounded to float at the end); uniform mode
 //    keeps the original point nearest the voxel centre (key + 0.5) * d, in double, ties to the
 //    lowest point index. d == 0 keeps every point.
@@ -118,12 +119,13 @@ inline std::vector<RawLabel> reference_raw_labels(std::span<const Point> points,
 
 using VoxelKey = std::array<std::int64_t, 3>;
 
-// The voxel of p for voxel size d > 0: floor(double(p) / double(d)) per axis.
+// The voxel of p for voxel size d > 0: floor(double(p) * (1 / double(d))) per axis.
 inline VoxelKey voxel_key(const Point& p, float d)
 {
-    return {static_cast<std::int64_t>(std::floor(double(p.x()) / double(d))),
-            static_cast<std::int64_t>(std::floor(double(p.y()) / double(d))),
-            static_cast<std::int64_t>(std::floor(double(p.z()) / double(d)))};
+    const double inverse = 1.0 / double(d);
+    return {static_cast<std::int64_t>(std::floor(double(p.x()) * inverse)),
+            static_cast<std::int64_t>(std::floor(double(p.y()) * inverse)),
+            static_cast<std::int64_t>(std::floor(double(p.z()) * inverse))};
 }
 
 struct Downsampled {

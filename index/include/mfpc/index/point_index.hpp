@@ -13,24 +13,36 @@ namespace mfpc {
 
 struct PointIndexParams {
     // Edge of one index voxel (metres). Points are bucketed into voxels, voxels into leaves of
-    // 8x8x8 voxels (OpenVDB's PointIndexGrid). Labelling cost grows with the leaves that straddle a
-    // box face, so smaller voxels mean fewer points tested per straddling leaf but more leaves.
-    float voxel_size = 0.01f;
+    // 8x8x8 voxels (OpenVDB's PointIndexGrid). Labelling decides whole leaves, then whole voxels,
+    // and tests single points only in voxels that straddle a box face; smaller voxels mean fewer
+    // such points but more voxels to decide and a slower build.
+    float voxel_size = 0.005f;
 };
 
-// One leaf of the index: the points it holds (a range of point_order()) and their tight bounds.
-// The bounds are the min/max of the float coordinates themselves, not the nominal voxel extent,
-// so "every point of this leaf is inside box B" is exactly bounds ⊆ B.
-struct PointIndexLeaf {
+// One occupied voxel of the index: the points it holds (a range of point_order()) and their tight
+// bounds. Tight bounds are the min/max of the float coordinates themselves, not the voxel's
+// nominal extent, so "every point of this voxel is inside box B" is exactly bounds ⊆ B.
+struct PointIndexVoxel {
     Box bounds;
     std::uint32_t begin = 0;
     std::uint32_t end = 0;
     std::uint32_t size() const { return end - begin; }
 };
 
+// One leaf (8x8x8 voxels): its occupied voxels (a range of voxels()), their points (a range of
+// point_order()) and the tight bounds of those points.
+struct PointIndexLeaf {
+    Box bounds;
+    std::uint32_t begin = 0;
+    std::uint32_t end = 0;
+    std::uint32_t voxel_begin = 0;
+    std::uint32_t voxel_end = 0;
+    std::uint32_t size() const { return end - begin; }
+};
+
 // A cloud bucketed once into an OpenVDB sparse grid (tools::PointIndexGrid), reusable for any
 // number of box, radius and foveation queries while the cloud does not change. The index refers to
-// the caller's points (it keeps a view, not a copy): they must outlive it and stay unchanged.
+// the caller's points (points() is a view of them): they must outlive it and stay unchanged.
 class PointIndex {
 public:
     explicit PointIndex(std::span<const Point> points, const PointIndexParams& params = {});
@@ -43,10 +55,16 @@ public:
     std::span<const Point> points() const { return points_; }
     const PointIndexParams& params() const { return params_; }
 
-    // Leaves in a fixed order (by leaf origin), each with its points' index range in point_order().
+    // Leaves in a fixed order (by leaf origin); voxels grouped by leaf, in OpenVDB's voxel order
+    // within a leaf.
     std::span<const PointIndexLeaf> leaves() const { return leaves_; }
-    // Every point index exactly once, grouped by leaf; ascending within a leaf.
+    std::span<const PointIndexVoxel> voxels() const { return voxels_; }
+    // Every point index exactly once, grouped by voxel (so by leaf); ascending within a voxel.
     std::span<const std::uint32_t> point_order() const { return point_order_; }
+    // The points themselves in point_order(): ordered_points()[k] == points()[point_order()[k]].
+    // A copy (12 bytes a point) that lets kernels read a voxel's points from contiguous memory
+    // instead of gathering them across the cloud.
+    std::span<const Point> ordered_points() const { return ordered_points_; }
 
     // Indices of the points inside `box` (closed), ascending, appended to `out` after clearing it.
     void points_in_box(const Box& box, std::vector<std::uint32_t>& out) const;
@@ -62,7 +80,9 @@ private:
     PointIndexParams params_;
     std::unique_ptr<Grid> grid_;
     std::vector<PointIndexLeaf> leaves_;
+    std::vector<PointIndexVoxel> voxels_;
     std::vector<std::uint32_t> point_order_;
+    std::vector<Point> ordered_points_;
 };
 
 }  // namespace mfpc

@@ -12,8 +12,8 @@
 namespace mfpc {
 
 // The members of every level region (structure l, level k) of a foveation, before downsampling.
-// Region r = l * (m + 1) + k. Members are point indices into the indexed cloud, in the index's
-// point order (leaf by leaf), which is fixed for a given index: the same at any thread count.
+// Region r = l * (m + 1) + k. Members are point indices into the indexed cloud, ascending within a
+// region, whatever the index and the thread count.
 struct FoveationRegions {
     int structures = 0;
     int levels = 0;  // m
@@ -66,11 +66,14 @@ struct FoveatedCloud {
 };
 
 // Downsamples each region on its own with its structure's d_k; regions never mix. A voxel grid
-// anchored at the world origin, voxel (i, j, k) = floor(p / d_k) per axis computed in double:
-//  - voxel:   the centroid of the voxel's points (normals averaged and renormalised, colours
-//             averaged; the source position is the voxel's lowest-index point's);
+// anchored at the world origin, voxel (i, j, k) = floor(p * (1 / d_k)) per axis in double (a
+// multiplication by the inverse, as PCL's VoxelGrid):
+//  - voxel:   the centroid of the voxel's points, summed in double in ascending point index
+//             (normals averaged and renormalised, colours averaged; the source position is the
+//             voxel's lowest-index point's);
 //  - uniform: the voxel's original point nearest the voxel centre (ties: the lowest index).
-// Output: regions in order, within a region voxels in (i, j, k) order; d_k = 0 keeps every member.
+// Output: regions in order; within a region, voxels in the order of their lowest-index point;
+// d_k = 0 keeps every member.
 FoveatedCloud downsample_regions(const PointCloud& cloud, const FoveationRegions& regions,
                                  std::span<const FoveatedStructure> structures, Downsample downsample);
 

@@ -1,0 +1,66 @@
+#pragma once
+
+// Shared by the benchmark programs: ratio reporting. Each program registers pairs of benchmarks
+// (a baseline and ours) and, after the runs, prints baseline / ours from the medians of the
+// repetitions measured in the same process.
+
+#include <cstdio>
+#include <map>
+#include <string>
+#include <vector>
+
+#include <benchmark/benchmark.h>
+
+namespace mfpc::bench {
+
+// Remembers each benchmark's median real time (ms), or its only run when not repeated.
+class RecordingReporter : public benchmark::ConsoleReporter {
+public:
+    void ReportRuns(const std::vector<Run>& runs) override
+    {
+        for (const Run& run : runs) {
+            if (run.error_occurred) continue;
+            const bool median = run.run_type == Run::RT_Aggregate && run.aggregate_name == "median";
+            const bool single = run.run_type == Run::RT_Iteration && run.repetitions <= 1;
+            if (median || single) {
+                std::string name = run.run_name.function_name;
+                if (!run.run_name.args.empty()) name += "/" + run.run_name.args;
+                times_ms_[name] = run.GetAdjustedRealTime() * to_ms(run.time_unit);
+            }
+        }
+        ConsoleReporter::ReportRuns(runs);
+    }
+
+    // Median time of a benchmark by its name, or a negative number when it did not run.
+    double time_ms(const std::string& name) const
+    {
+        const auto it = times_ms_.find(name);
+        return it == times_ms_.end() ? -1.0 : it->second;
+    }
+
+    void print_ratio(const std::string& label, const std::string& baseline, const std::string& ours) const
+    {
+        const double b = time_ms(baseline);
+        const double o = time_ms(ours);
+        if (b < 0 || o <= 0) {
+            std::printf("%-58s (not run)\n", label.c_str());
+            return;
+        }
+        std::printf("%-58s %10.3f ms / %10.3f ms = %8.2fx\n", label.c_str(), b, o, b / o);
+    }
+
+private:
+    static double to_ms(benchmark::TimeUnit unit)
+    {
+        switch (unit) {
+        case benchmark::kNanosecond: return 1e-6;
+        case benchmark::kMicrosecond: return 1e-3;
+        case benchmark::kMillisecond: return 1.0;
+        case benchmark::kSecond: return 1e3;
+        }
+        return 1.0;
+    }
+    std::map<std::string, double> times_ms_;
+};
+
+}  // namespace mfpc::bench
