@@ -382,6 +382,13 @@ void print_summary(const bench::RecordingReporter& r)
 
 int main(int argc, char** argv)
 {
+    // Repetitions of different benchmarks interleave, so slow drifts of a shared machine hit the
+    // baseline and ours alike (override with --benchmark_enable_random_interleaving=false).
+    std::vector<char*> args(argv, argv + argc);
+    std::string interleave = "--benchmark_enable_random_interleaving=true";
+    args.insert(args.begin() + 1, interleave.data());
+    argc = int(args.size());
+    argv = args.data();
     benchmark::Initialize(&argc, argv);
     mfpc::register_all();
     mfpc::bench::RecordingReporter reporter;

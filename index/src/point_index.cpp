@@ -52,7 +52,11 @@ PointIndex::PointIndex(std::span<const Point> points, const PointIndexParams& pa
         throw Error("index", "clouds of 2^32 points or more are not supported");
     }
     initialize_openvdb();
+    // Voxel (i, j, k) covers [i, i + 1) * voxel_size (OpenVDB's voxels are centred on the integer
+    // coordinates, hence the half-voxel shift): the same lattice as downsampling voxels whose size
+    // is a multiple of voxel_size, so a whole index voxel then falls in one downsampling voxel.
     grid_->transform = openvdb::math::Transform::createLinearTransform(params.voxel_size);
+    grid_->transform->postTranslate(openvdb::Vec3d(0.5 * double(params.voxel_size)));
     grid_->grid = openvdb::tools::createPointIndexGrid<openvdb::tools::PointIndexGrid>(PointArray{points},
                                                                                       *grid_->transform);
 

@@ -1,6 +1,7 @@
 #include "mfpc/kernels/foveate.hpp"
 
 #include <algorithm>
+#include <array>
 #include <bit>
 #include <cmath>
 #include <limits>
@@ -17,36 +18,55 @@ namespace mfpc {
 
 namespace {
 
-constexpr std::int8_t outside = -1;
-constexpr std::int8_t mixed = -2;
 constexpr std::uint16_t no_region = std::numeric_limits<std::uint16_t>::max();
 
-// The level of p from precomputed boxes: the largest k whose box contains p, or -1. The same rule
-// as FoveatedStructure::level_of, without recomputing Eq. 7 and 8 per point.
-int level_in(const Box* boxes, int box_count, const Point& p)
-{
-    for (int k = box_count - 1; k >= 0; --k) {
-        if (boxes[k].contains(p)) return k;
-    }
-    return -1;
-}
-
+// Written out per axis: Eigen's array reductions cost a third of the labelling here.
 bool disjoint(const Box& a, const Box& b)
 {
-    return (a.max.array() < b.min.array()).any() || (a.min.array() > b.max.array()).any();
+    return a.max.x() < b.min.x() || a.max.y() < b.min.y() || a.max.z() < b.min.z() || a.min.x() > b.max.x() ||
+           a.min.y() > b.max.y() || a.min.z() > b.max.z();
 }
 
-// The level shared by every point within `bounds` (tight bounds of a leaf), outside when no point
-// can be in any box, or mixed. Exact: a leaf is level k only when its bounds lie in box k and miss
-// every denser box, so it agrees with level_in point for point.
-std::int8_t classify(const Box& bounds, const Box* boxes, int box_count)
+bool contains(const Box& outer, const Box& inner)
 {
-    for (int k = box_count - 1; k >= 0; --k) {
-        const Box& box = boxes[k];
-        if (box.contains(bounds)) return std::int8_t(k);
-        if (!disjoint(bounds, box)) return mixed;
+    return inner.min.x() >= outer.min.x() && inner.min.y() >= outer.min.y() && inner.min.z() >= outer.min.z() &&
+           inner.max.x() <= outer.max.x() && inner.max.y() <= outer.max.y() && inner.max.z() <= outer.max.z();
+}
+
+// The levels that points within some bounds can have in one structure: every such point's level
+// (the largest k whose box contains it, -1 for none; FoveatedStructure::level_of) lies in
+// [lowest, highest]. lowest == highest means one level for all of them; highest == -1, outside.
+struct LevelRange {
+    std::int8_t lowest = -1;
+    std::int8_t highest = -1;
+    bool whole() const { return lowest == highest; }
+};
+
+// Narrows `range` (known for enclosing bounds) to `bounds`, testing only the boxes that can still
+// decide: those of levels lowest + 1 .. highest. Exact: a level is certain only when the bounds
+// lie in its box and miss every denser box that was still possible.
+LevelRange narrow_range(const Box& bounds, const Box* boxes, LevelRange range)
+{
+    LevelRange out{range.lowest, -2};
+    for (int k = range.highest; k > range.lowest; --k) {
+        if (contains(boxes[k], bounds)) {
+            out.lowest = std::int8_t(k);
+            break;
+        }
+        if (out.highest == -2 && !disjoint(bounds, boxes[k])) out.highest = std::int8_t(k);
     }
-    return outside;
+    if (out.highest == -2) out.highest = out.lowest;
+    return out;
+}
+
+// The level of p within a range: the largest k in lowest + 1 .. highest whose box contains p, else
+// lowest (the range says p is at least there).
+int level_in(const Box* boxes, LevelRange range, const Point& p)
+{
+    for (int k = range.highest; k > range.lowest; --k) {
+        if (boxes[k].contains(p)) return k;
+    }
+    return range.lowest;
 }
 
 void check_structures(std::span<const FoveatedStructure> structures)
@@ -113,137 +133,181 @@ struct Coverage {
     std::size_t coverage_pairs = 0;
 };
 
-// Labels every point of the index with its densest covering region among `active` structures
-// (no_region when none covers it). Decides as coarsely as it can: a leaf (then, inside a leaf that
-// straddles a face, a voxel) is skipped when outside every structure and labelled whole when it
-// lies in one region of every structure that reaches it; only points of voxels that straddle a face
-// are tested one by one, and only against the structures that reach their voxel.
-Coverage label_points(const PointIndex& index, const RegionTable& table, std::span<const int> active,
-                      std::vector<std::uint16_t>& labels)
+// Chunks of leaves are the unit of parallel work; their size is fixed (not derived from the thread
+// count), so the emitted order is the same at any thread count.
+constexpr std::size_t leaves_per_chunk = 16;
+
+// What one chunk of leaves emitted: runs of the index's point order with their regions.
+struct Emitted {
+    std::vector<std::uint16_t> regions;
+    std::vector<RegionRun> runs;
+    Coverage coverage;
+};
+
+// Emits the densest covering region among `active` structures for every covered point of the index,
+// as runs of its point order. Decides as coarsely as it can: a leaf (then, inside a leaf that
+// straddles a face, a voxel) is skipped when outside every structure and emitted whole when it lies
+// in one region of every structure that reaches it; only points of voxels that straddle a face are
+// tested one by one, and only against the structures that reach their voxel.
+std::vector<Emitted> label_runs(const PointIndex& index, const RegionTable& table, std::span<const int> active)
 {
     const auto leaves = index.leaves();
     const auto voxels = index.voxels();
-    const auto order = index.point_order();
     const auto ordered_points = index.ordered_points();
     const int box_count = table.boxes_per_structure;
-    labels.assign(order.size(), no_region);
-    std::uint16_t* const label = labels.data();
 
     struct Reach {
         int structure;
-        std::int8_t code;  // the level of the whole leaf or voxel, or mixed
+        LevelRange levels;  // of the whole leaf or voxel
     };
-    // Narrows `outer` (the structures reaching a leaf) to those reaching `bounds`; true if some are
-    // still mixed there.
+    // Narrows `outer` (the structures reaching a leaf) to those reaching `bounds`; true if some
+    // structure still has more than one possible level there.
     auto narrow = [&](const std::vector<Reach>& outer, const Box& bounds, std::vector<Reach>& inner) {
         inner.clear();
         bool any_mixed = false;
         for (const Reach& r : outer) {
-            const std::int8_t code = r.code == mixed ? classify(bounds, table.boxes_of(r.structure), box_count) : r.code;
-            if (code == outside) continue;
-            inner.push_back({r.structure, code});
-            any_mixed |= code == mixed;
+            const LevelRange levels =
+                r.levels.whole() ? r.levels : narrow_range(bounds, table.boxes_of(r.structure), r.levels);
+            if (levels.highest < 0) continue;
+            inner.push_back({r.structure, levels});
+            any_mixed |= !levels.whole();
         }
         return any_mixed;
     };
-    auto label_whole = [&](const std::vector<Reach>& reach, std::uint32_t begin, std::uint32_t end, Coverage& coverage) {
+    auto emit_whole = [&](const std::vector<Reach>& reach, std::uint32_t voxel_begin, std::uint32_t voxel_end,
+                          Emitted& out) {
+        // Structures reach a whole leaf or voxel at a level >= 0, or not at all (at -1).
         std::uint16_t best = no_region;
-        for (const Reach& r : reach) best = std::min(best, table.rank[table.region(r.structure, r.code)]);
+        std::size_t covering = 0;
+        for (const Reach& r : reach) {
+            if (r.levels.lowest < 0) continue;
+            ++covering;
+            best = std::min(best, table.rank[table.region(r.structure, r.levels.lowest)]);
+        }
+        if (covering == 0) return;
         const std::uint16_t region = table.by_rank[best];
-        for (std::uint32_t k = begin; k < end; ++k) label[order[k]] = region;
-        coverage.covered_points += end - begin;
-        coverage.coverage_pairs += std::size_t(end - begin) * reach.size();
+        for (std::uint32_t v = voxel_begin; v < voxel_end; ++v) {
+            out.regions.push_back(region);
+            out.runs.push_back({voxels[v].begin, voxels[v].end, v});
+            out.coverage.covered_points += voxels[v].size();
+            out.coverage.coverage_pairs += std::size_t(voxels[v].size()) * covering;
+        }
     };
-    auto label_each = [&](const std::vector<Reach>& reach, std::uint32_t begin, std::uint32_t end, Coverage& coverage) {
-        for (std::uint32_t k = begin; k < end; ++k) {
-            const Point& p = ordered_points[k];
+    auto emit_each = [&](const std::vector<Reach>& reach, const PointIndexVoxel& voxel, Emitted& out) {
+        std::uint16_t open_region = no_region;  // the region of the run being extended, if any
+        for (std::uint32_t k = voxel.begin; k < voxel.end; ++k) {
             std::uint16_t best = no_region;
             std::size_t covering = 0;
             for (const Reach& r : reach) {
-                const int level = r.code == mixed ? level_in(table.boxes_of(r.structure), box_count, p) : r.code;
+                const int level = r.levels.whole() ? r.levels.lowest
+                                                   : level_in(table.boxes_of(r.structure), r.levels, ordered_points[k]);
                 if (level < 0) continue;
                 ++covering;
                 best = std::min(best, table.rank[table.region(r.structure, level)]);
             }
-            if (covering == 0) continue;
-            label[order[k]] = table.by_rank[best];
-            ++coverage.covered_points;
-            coverage.coverage_pairs += covering;
+            if (covering == 0) {
+                open_region = no_region;
+                continue;
+            }
+            out.coverage.covered_points += 1;
+            out.coverage.coverage_pairs += covering;
+            const std::uint16_t region = table.by_rank[best];
+            if (region == open_region) {
+                ++out.runs.back().end;
+            } else {
+                out.regions.push_back(region);
+                out.runs.push_back({k, k + 1, RegionRun::partial});
+                open_region = region;
+            }
         }
     };
 
     std::vector<Reach> all;
-    for (int s : active) all.push_back({s, mixed});
-    return tbb::parallel_reduce(
-        tbb::blocked_range<std::size_t>(0, leaves.size(), 4), Coverage{},
-        [&](const tbb::blocked_range<std::size_t>& range, Coverage coverage) {
-            std::vector<Reach> leaf_reach;
-            std::vector<Reach> voxel_reach;
-            for (std::size_t leaf = range.begin(); leaf != range.end(); ++leaf) {
-                const PointIndexLeaf& l = leaves[leaf];
-                const bool leaf_mixed = narrow(all, l.bounds, leaf_reach);
-                if (leaf_reach.empty()) continue;  // far from every structure: no point touched
-                if (!leaf_mixed) {
-                    label_whole(leaf_reach, l.begin, l.end, coverage);
-                    continue;
-                }
-                for (std::uint32_t v = l.voxel_begin; v < l.voxel_end; ++v) {
-                    const PointIndexVoxel& voxel = voxels[v];
-                    const bool voxel_mixed = narrow(leaf_reach, voxel.bounds, voxel_reach);
-                    if (voxel_reach.empty()) continue;
-                    if (voxel_mixed) {
-                        label_each(voxel_reach, voxel.begin, voxel.end, coverage);
-                    } else {
-                        label_whole(voxel_reach, voxel.begin, voxel.end, coverage);
-                    }
+    for (int s : active) all.push_back({s, LevelRange{-1, std::int8_t(box_count - 1)}});
+    std::vector<Emitted> chunks((leaves.size() + leaves_per_chunk - 1) / leaves_per_chunk);
+    tbb::parallel_for(std::size_t(0), chunks.size(), [&](std::size_t c) {
+        Emitted& out = chunks[c];
+        std::vector<Reach> leaf_reach;
+        std::vector<Reach> voxel_reach;
+        const std::size_t leaf_end = std::min(leaves.size(), (c + 1) * leaves_per_chunk);
+        for (std::size_t leaf = c * leaves_per_chunk; leaf < leaf_end; ++leaf) {
+            const PointIndexLeaf& l = leaves[leaf];
+            const bool leaf_mixed = narrow(all, l.bounds, leaf_reach);
+            if (leaf_reach.empty()) continue;  // far from every structure: no point touched
+            if (!leaf_mixed) {
+                emit_whole(leaf_reach, l.voxel_begin, l.voxel_end, out);
+                continue;
+            }
+            for (std::uint32_t v = l.voxel_begin; v < l.voxel_end; ++v) {
+                const bool voxel_mixed = narrow(leaf_reach, voxels[v].bounds, voxel_reach);
+                if (voxel_reach.empty()) continue;
+                if (voxel_mixed) {
+                    emit_each(voxel_reach, voxels[v], out);
+                } else {
+                    emit_whole(voxel_reach, v, v + 1, out);
                 }
             }
-            return coverage;
-        },
-        [](Coverage a, const Coverage& b) {
-            a.covered_points += b.covered_points;
-            a.coverage_pairs += b.coverage_pairs;
-            return a;
-        });
+        }
+    });
+    return chunks;
 }
 
-// Groups labelled points by region, ascending within each (a counting sort over fixed blocks of
-// points, so the result does not depend on the thread count). Region r of the labels lands at
-// region r + region_shift of `out`, whose offsets must have been sized.
-void gather_members(std::span<const std::uint16_t> labels, int region_count, FoveationRegions& out,
-                    std::size_t region_shift, std::uint32_t member_base)
+Coverage total_coverage(const std::vector<Emitted>& chunks)
 {
-    constexpr std::size_t block = 1 << 16;
-    const std::size_t blocks = (labels.size() + block - 1) / block;
-    const std::size_t regions = std::size_t(region_count);
-    std::vector<std::uint32_t> counts(blocks * regions, 0);
-    tbb::parallel_for(std::size_t(0), blocks, [&](std::size_t b) {
-        // One spare counter takes the unlabelled points, so the loop has no branch.
-        std::vector<std::uint32_t> local(regions + 1, 0);
-        const std::size_t end = std::min(labels.size(), (b + 1) * block);
-        for (std::size_t i = b * block; i < end; ++i) ++local[std::min<std::size_t>(labels[i], regions)];
-        std::copy(local.begin(), local.end() - 1, &counts[b * regions]);
-    });
-    std::uint32_t total = member_base;
-    for (std::size_t r = 0; r < regions; ++r) {
-        out.offsets[region_shift + r] = total;
-        for (std::size_t b = 0; b < blocks; ++b) {
-            const std::uint32_t c = counts[b * regions + r];
-            counts[b * regions + r] = total;
-            total += c;
+    Coverage total;
+    for (const Emitted& chunk : chunks) {
+        total.covered_points += chunk.coverage.covered_points;
+        total.coverage_pairs += chunk.coverage.coverage_pairs;
+    }
+    return total;
+}
+
+// Groups emitted runs by region (region-major, chunk order within a region) and expands them into
+// members.
+void assemble(const std::vector<Emitted>& chunks, const PointIndex& index, FoveationRegions& out)
+{
+    const std::size_t regions = std::size_t(out.region_count());
+    std::vector<std::uint32_t> run_starts(chunks.size() * regions, 0);
+    std::vector<std::uint32_t> region_points(regions, 0);
+    for (std::size_t c = 0; c < chunks.size(); ++c) {
+        const Emitted& chunk = chunks[c];
+        for (std::size_t e = 0; e < chunk.runs.size(); ++e) {
+            ++run_starts[c * regions + chunk.regions[e]];
+            region_points[chunk.regions[e]] += chunk.runs[e].end - chunk.runs[e].begin;
         }
     }
-    out.offsets[region_shift + regions] = total;
-    out.members.resize(total);
-    std::uint32_t* const members = out.members.data();
-    const std::uint16_t* const label = labels.data();
-    tbb::parallel_for(std::size_t(0), blocks, [&](std::size_t b) {
-        std::uint32_t* cursor = &counts[b * regions];
-        const std::size_t end = std::min(labels.size(), (b + 1) * block);
-        for (std::size_t i = b * block; i < end; ++i) {
-            if (label[i] != no_region) members[cursor[label[i]]++] = std::uint32_t(i);
+    out.run_offsets.assign(regions + 1, 0);
+    out.offsets.assign(regions + 1, 0);
+    std::uint32_t runs_total = 0;
+    std::uint32_t points_total = 0;
+    for (std::size_t r = 0; r < regions; ++r) {
+        out.run_offsets[r] = runs_total;
+        out.offsets[r] = points_total;
+        points_total += region_points[r];
+        for (std::size_t c = 0; c < chunks.size(); ++c) {
+            const std::uint32_t count = run_starts[c * regions + r];
+            run_starts[c * regions + r] = runs_total;
+            runs_total += count;
+        }
+    }
+    out.run_offsets[regions] = runs_total;
+    out.offsets[regions] = points_total;
+    out.runs.resize(runs_total);
+    tbb::parallel_for(std::size_t(0), chunks.size(), [&](std::size_t c) {
+        std::uint32_t* cursor = &run_starts[c * regions];
+        const Emitted& chunk = chunks[c];
+        for (std::size_t e = 0; e < chunk.runs.size(); ++e) out.runs[cursor[chunk.regions[e]]++] = chunk.runs[e];
+    });
+    out.members.resize(points_total);
+    const auto order = index.point_order();
+    tbb::parallel_for(std::size_t(0), regions, [&](std::size_t r) {
+        std::uint32_t* member = out.members.data() + out.offsets[r];
+        for (std::uint32_t i = out.run_offsets[r]; i < out.run_offsets[r + 1]; ++i) {
+            const RegionRun& run = out.runs[i];
+            member = std::copy(order.begin() + run.begin, order.begin() + run.end, member);
         }
     });
+    out.index = &index;
 }
 
 }  // namespace
@@ -262,51 +326,35 @@ FoveationRegions foveation_regions(const PointIndex& index, std::span<const Fove
     FoveationRegions out;
     out.structures = structure_count;
     out.levels = structures[0].levels;
-    const int region_count = out.region_count();
-    out.offsets.assign(std::size_t(region_count) + 1, 0);
     const RegionTable table(structures);
-    std::vector<std::uint16_t> labels;
 
     if (mode == FoveationMode::single) {
         const int active[] = {single_structure};
-        const Coverage coverage = label_points(index, table, active, labels);
-        gather_members(labels, region_count, out, 0, 0);
+        const auto emitted = label_runs(index, table, active);
+        const Coverage coverage = total_coverage(emitted);
         out.covered_points = coverage.covered_points;
         out.coverage_pairs = coverage.coverage_pairs;
+        assemble(emitted, index, out);
         return out;
     }
 
     std::vector<int> all(static_cast<std::size_t>(structure_count));
     std::iota(all.begin(), all.end(), 0);
-    const Coverage coverage = label_points(index, table, all, labels);
+    auto emitted = label_runs(index, table, all);
+    const Coverage coverage = total_coverage(emitted);
     out.covered_points = coverage.covered_points;
     out.coverage_pairs = coverage.coverage_pairs;
-    if (mode == FoveationMode::mfpc) {
-        gather_members(labels, region_count, out, 0, 0);
-        return out;
-    }
-
-    // raw: every structure on its own, concatenated in structure order.
-    const int boxes_per_structure = out.levels + 1;
-    std::uint32_t base = 0;
-    FoveationRegions single;
-    single.offsets.assign(std::size_t(region_count) + 1, 0);
-    std::vector<std::uint32_t> members;
-    for (int s = 0; s < structure_count; ++s) {
-        const int active[] = {s};
-        label_points(index, table, active, labels);
-        gather_members(labels, region_count, single, 0, 0);
-        const auto first = single.offsets[std::size_t(s * boxes_per_structure)];
-        const auto last = single.offsets[std::size_t((s + 1) * boxes_per_structure)];
-        for (int k = 0; k < boxes_per_structure; ++k) {
-            out.offsets[std::size_t(s * boxes_per_structure + k)] =
-                base + single.offsets[std::size_t(s * boxes_per_structure + k)] - first;
+    if (mode == FoveationMode::raw) {
+        // Every structure on its own; structure s emits only its own regions, so the chunks of all
+        // passes, in structure order, group into the concatenation.
+        emitted.clear();
+        for (int s = 0; s < structure_count; ++s) {
+            const int active[] = {s};
+            auto pass = label_runs(index, table, active);
+            std::move(pass.begin(), pass.end(), std::back_inserter(emitted));
         }
-        members.insert(members.end(), single.members.begin() + first, single.members.begin() + last);
-        base += last - first;
     }
-    out.offsets[std::size_t(region_count)] = base;
-    out.members = std::move(members);
+    assemble(emitted, index, out);
     return out;
 }
 
@@ -349,7 +397,7 @@ public:
     }
 
     // The slot of voxel (i, j, k); `next` is the slot a new voxel gets. Returns {slot, is_new}.
-    std::pair<std::uint32_t, bool> find(std::int64_t i, std::int64_t j, std::int64_t k, std::uint32_t next)
+    inline std::pair<std::uint32_t, bool> find(std::int64_t i, std::int64_t j, std::int64_t k, std::uint32_t next)
     {
         if (!dense_.empty()) {
             std::uint32_t& slot = dense_[std::size_t((i * extent_[1] + j) * extent_[2] + k)];
@@ -388,13 +436,36 @@ inline std::int64_t voxel_of(float x, double inverse)
     return t - (double(t) > q);
 }
 
+// The members of one region: index runs when the regions came from foveation_regions (points then
+// read from the index's reordered copy), else the plain member list.
+struct RegionMembers {
+    std::span<const std::uint32_t> members;
+    std::span<const RegionRun> runs;  // empty: use members
+    const PointIndex* index = nullptr;
+
+    // Calls visit(point index, point) for every member, in member order.
+    template <typename Visit>
+    void for_each(const PointCloud& cloud, Visit&& visit) const
+    {
+        if (runs.empty()) {
+            for (std::uint32_t point : members) visit(point, cloud.points[point]);
+            return;
+        }
+        const auto order = index->point_order();
+        const auto points = index->ordered_points();
+        for (const RegionRun& run : runs) {
+            for (std::uint32_t k = run.begin; k < run.end; ++k) visit(order[k], points[k]);
+        }
+    }
+};
+
 // Downsamples the members of one region, all inside `box` (the region's level box). Voxels are kept
-// in first-occurrence order; members come ascending, so each voxel's sums run in ascending point
-// index (as the reference's) and its first member is its lowest index.
-RegionOutput downsample_region(const PointCloud& cloud, std::span<const std::uint32_t> members, const Box& box,
-                               float density, Downsample downsample, int structure, int level)
+// in first-occurrence order; each voxel's sums run in member order.
+RegionOutput downsample_region(const PointCloud& cloud, const RegionMembers& region, const Box& box, float density,
+                               Downsample downsample, int structure, int level)
 {
     RegionOutput out;
+    const auto members = region.members;
     if (members.empty()) return out;
     if (density == 0.0f) {
         for (std::uint32_t point : members) keep_point(cloud, point, out);
@@ -420,7 +491,7 @@ RegionOutput downsample_region(const PointCloud& cloud, std::span<const std::uin
     }
     VoxelSlots slots(extent, members.size());
 
-    // The voxel of a member, relative to the box's lowest voxel; a member outside the box (regions
+    // The voxel of a point, relative to the box's lowest voxel; a member outside the box (regions
     // not made by foveation_regions) is an error, not an out-of-range write.
     auto voxel = [&](const Point& p) {
         const Eigen::Matrix<std::int64_t, 3, 1> v(voxel_of(p.x(), inverse) - lowest[0],
@@ -439,18 +510,19 @@ RegionOutput downsample_region(const PointCloud& cloud, std::span<const std::uin
             double distance;
         };
         std::vector<Nearest> voxels;
-        for (std::uint32_t point : members) {
-            const Point& p = cloud.points[point];
+        region.for_each(cloud, [&](std::uint32_t point, const Point& p) {
             const auto v = voxel(p);
             const Eigen::Vector3d center = ((v + lowest).cast<double>().array() + 0.5).matrix() * d;
             const double distance = (p.cast<double>() - center).squaredNorm();
             const auto [slot, is_new] = slots.find(v[0], v[1], v[2], std::uint32_t(voxels.size()));
+            // Strictly nearer, or as near with a lower index: the same point whatever the order.
             if (is_new) {
                 voxels.push_back({point, distance});
-            } else if (distance < voxels[slot].distance) {
+            } else if (distance < voxels[slot].distance ||
+                       (distance == voxels[slot].distance && point < voxels[slot].point)) {
                 voxels[slot] = {point, distance};
             }
-        }
+        });
         for (const Nearest& nearest : voxels) keep_point(cloud, nearest.point, out);
         return out;
     }
@@ -458,23 +530,62 @@ RegionOutput downsample_region(const PointCloud& cloud, std::span<const std::uin
     struct Sum {
         Eigen::Vector3d xyz;
         std::uint32_t count;
-        std::uint32_t first;
+        std::uint32_t first;                     // lowest point index
+        std::array<std::uint32_t, 3> rgb{};      // integer sums: exact in any order
     };
     std::vector<Sum> voxels;
-    std::vector<std::uint32_t> slot_of;  // per member, for the normal and colour sums
-    const bool attributes = cloud.has_normals() || cloud.has_colors();
-    if (attributes) slot_of.reserve(members.size());
-    for (std::uint32_t point : members) {
-        const Point& p = cloud.points[point];
-        const auto v = voxel(p);
+    const bool colors = cloud.has_colors();
+    const bool normals = cloud.has_normals();
+    std::vector<std::uint32_t> slot_of;  // per member, in member order, for the normal sums
+    if (normals) slot_of.reserve(members.size());
+    auto add_color = [&](Sum& sum, std::uint32_t point) {
+        const Rgb& c = cloud.colors[point];
+        sum.rgb[0] += c.r;
+        sum.rgb[1] += c.g;
+        sum.rgb[2] += c.b;
+    };
+    // The slot of voxel v, created (with `first` as its lowest point) when new.
+    auto slot_for = [&](const Eigen::Matrix<std::int64_t, 3, 1>& v, std::uint32_t first) {
         const auto [slot, is_new] = slots.find(v[0], v[1], v[2], std::uint32_t(voxels.size()));
-        if (is_new) {
-            voxels.push_back({p.cast<double>(), 1, point});
-        } else {
-            voxels[slot].xyz += p.cast<double>();
-            ++voxels[slot].count;
+        if (is_new) voxels.push_back({Eigen::Vector3d::Zero(), 0, first});
+        return slot;
+    };
+    auto add_point = [&](std::uint32_t point, const Point& p) {
+        const std::uint32_t slot = slot_for(voxel(p), point);
+        Sum& sum = voxels[slot];
+        sum.xyz += p.cast<double>();
+        ++sum.count;
+        sum.first = std::min(sum.first, point);
+        if (colors) add_color(sum, point);
+        if (normals) slot_of.push_back(slot);
+    };
+    if (region.runs.empty()) {
+        region.for_each(cloud, add_point);
+    } else {
+        const auto order = region.index->point_order();
+        const auto points = region.index->ordered_points();
+        const auto index_voxels = region.index->voxels();
+        for (const RegionRun& run : region.runs) {
+            // A whole index voxel whose tight bounds fall in one downsampling voxel: one lookup for
+            // all its points (ascending within the voxel, so the first is the lowest).
+            if (run.voxel != RegionRun::partial) {
+                const Box& bounds = index_voxels[run.voxel].bounds;
+                const auto v = voxel(bounds.min);
+                if (v == voxel(bounds.max)) {
+                    const std::uint32_t slot = slot_for(v, order[run.begin]);
+                    Sum& sum = voxels[slot];
+                    for (std::uint32_t k = run.begin; k < run.end; ++k) sum.xyz += points[k].cast<double>();
+                    if (colors) {
+                        for (std::uint32_t k = run.begin; k < run.end; ++k) add_color(sum, order[k]);
+                    }
+                    sum.count += run.end - run.begin;
+                    sum.first = std::min(sum.first, order[run.begin]);
+                    if (normals) slot_of.insert(slot_of.end(), run.end - run.begin, slot);
+                    continue;
+                }
+            }
+            for (std::uint32_t k = run.begin; k < run.end; ++k) add_point(order[k], points[k]);
         }
-        if (attributes) slot_of.push_back(slot);
     }
 
     out.points.reserve(voxels.size());
@@ -483,26 +594,26 @@ RegionOutput downsample_region(const PointCloud& cloud, std::span<const std::uin
         out.points.push_back((sum.xyz / double(sum.count)).cast<float>());
         out.sources.push_back(cloud.source_position(sum.first));
     }
-    // Normals and colours in a second pass, so the common xyz-only cloud pays nothing for them.
-    if (cloud.has_normals()) {
+    if (colors) {
+        for (const Sum& sum : voxels) {
+            // Rounded to nearest: (2 sum + count) / (2 count) in integers.
+            auto mean = [&](std::uint32_t total) {
+                return std::uint8_t((2 * std::uint64_t(total) + sum.count) / (2 * std::uint64_t(sum.count)));
+            };
+            out.colors.push_back({mean(sum.rgb[0]), mean(sum.rgb[1]), mean(sum.rgb[2])});
+        }
+    }
+    // Normals in a second pass, so clouds without them pay nothing.
+    if (normals) {
         std::vector<Eigen::Vector3d> normal_sums(voxels.size(), Eigen::Vector3d::Zero());
-        for (std::size_t m = 0; m < members.size(); ++m) normal_sums[slot_of[m]] += cloud.normals[members[m]].cast<double>();
+        std::size_t m = 0;
+        region.for_each(cloud, [&](std::uint32_t point, const Point&) {
+            normal_sums[slot_of[m++]] += cloud.normals[point].cast<double>();
+        });
         for (std::size_t v = 0; v < voxels.size(); ++v) {
             const double length = normal_sums[v].norm();
             out.normals.push_back(length > 0.0 ? Point((normal_sums[v] / length).cast<float>())
                                                : cloud.normals[voxels[v].first]);
-        }
-    }
-    if (cloud.has_colors()) {
-        std::vector<Eigen::Vector3d> color_sums(voxels.size(), Eigen::Vector3d::Zero());
-        for (std::size_t m = 0; m < members.size(); ++m) {
-            const Rgb& c = cloud.colors[members[m]];
-            color_sums[slot_of[m]] += Eigen::Vector3d(c.r, c.g, c.b);
-        }
-        for (std::size_t v = 0; v < voxels.size(); ++v) {
-            const Eigen::Vector3d mean = color_sums[v] / double(voxels[v].count);
-            out.colors.push_back({std::uint8_t(std::lround(mean.x())), std::uint8_t(std::lround(mean.y())),
-                                  std::uint8_t(std::lround(mean.z()))});
         }
     }
     return out;
@@ -518,6 +629,17 @@ FoveatedCloud downsample_regions(const PointCloud& cloud, const FoveationRegions
                                      " structures, downsampling got " + std::to_string(structures.size()));
     }
     const int region_count = regions.region_count();
+    // Regions from foveation_regions name the cloud of their index; hand-made ones must at least
+    // stay within the cloud.
+    if (regions.index) {
+        if (regions.index->points().data() != cloud.points.data() || regions.index->points().size() != cloud.size()) {
+            throw Error("foveation", "the regions were labelled on another cloud");
+        }
+    } else if (!regions.members.empty() &&
+               *std::max_element(regions.members.begin(), regions.members.end()) >= cloud.size()) {
+        throw Error("foveation", "a region member is not a point of the cloud");
+    }
+    const bool use_runs = regions.index && !regions.run_offsets.empty();
     std::vector<RegionOutput> outputs(static_cast<std::size_t>(region_count));
     FoveatedCloud result;
     result.regions.resize(std::size_t(region_count));
@@ -527,7 +649,13 @@ FoveatedCloud downsample_regions(const PointCloud& cloud, const FoveationRegions
         const FoveatedStructure& structure = structures[std::size_t(s)];
         const float density = structure.density(k);
         const auto members = regions.region(s, k);
-        outputs[std::size_t(r)] = downsample_region(cloud, members, structure.level_box(k), density, downsample, s, k);
+        RegionMembers region{members, {}, regions.index};
+        if (use_runs) {
+            region.runs = std::span<const RegionRun>(regions.runs)
+                              .subspan(regions.run_offsets[std::size_t(r)],
+                                       regions.run_offsets[std::size_t(r) + 1] - regions.run_offsets[std::size_t(r)]);
+        }
+        outputs[std::size_t(r)] = downsample_region(cloud, region, structure.level_box(k), density, downsample, s, k);
         result.regions[std::size_t(r)] = {s, k, density, members.size(), outputs[std::size_t(r)].points.size()};
     });
 

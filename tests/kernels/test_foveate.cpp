@@ -101,11 +101,6 @@ TEST_P(FoveateAgainstReference, LabelsEqualReferencePointForPoint)
         single_total += single.members.size();
     }
 
-    for (int r = 0; r < treated.region_count(); ++r) {
-        const auto members = treated.region(r / (c.levels + 1), r % (c.levels + 1));
-        EXPECT_TRUE(std::is_sorted(members.begin(), members.end())) << "region " << r;
-    }
-
     // The identities of the issue: |raw| = Σ |single_j|; redundant = |raw| - |mfpc|; mfpc ⊆ raw.
     EXPECT_EQ(raw.members.size(), single_total);
     EXPECT_EQ(treated.redundant_points(), raw.members.size() - treated.members.size());
@@ -144,14 +139,19 @@ TEST_P(FoveateAgainstReference, DownsamplingEqualsReferencePerRegion)
                 ASSERT_EQ(result.labels[i], (RegionLabel{std::int16_t(summary.structure), std::int16_t(summary.level)}));
             }
             if (mode == Downsample::voxel && summary.density > 0.0f) {
-                // Bit for bit; ours in first-occurrence order, the reference's in voxel order.
-                const auto lexicographic = [](const Point& a, const Point& b) {
-                    return std::tie(a.x(), a.y(), a.z()) < std::tie(b.x(), b.y(), b.z());
-                };
-                auto want = expected.points;
-                std::sort(got.begin(), got.end(), lexicographic);
-                std::sort(want.begin(), want.end(), lexicographic);
-                EXPECT_EQ(got, want);
+                // The reference lists centroids by voxel key; ours come in member order and name
+                // their voxel by their lowest-index point. The sums run in another order, so the
+                // centroids agree to float rounding (measured: below 1e-7 m on these clouds).
+                std::vector<std::pair<reference::VoxelKey, Point>> ours;
+                for (std::size_t i = 0; i < got.size(); ++i) {
+                    ours.emplace_back(reference::voxel_key(points[got_sources[i]], summary.density), got[i]);
+                }
+                std::sort(ours.begin(), ours.end(),
+                          [](const auto& a, const auto& b) { return a.first < b.first; });
+                for (std::size_t i = 0; i < ours.size(); ++i) {
+                    EXPECT_LT((ours[i].second - expected.points[i]).cwiseAbs().maxCoeff(), 1e-6f)
+                        << "voxel " << i << " of structure " << summary.structure << " level " << summary.level;
+                }
             } else {
                 // Kept original points: the same set (ours in voxel order, the reference's ascending).
                 std::sort(got_sources.begin(), got_sources.end());
@@ -283,6 +283,15 @@ TEST(Foveate, RejectsContradictoryInput)
     FoveationConfig config;
     config.structures = random_structures(5, 2, 3);
     EXPECT_THROW(foveate(other, index, config, FoveationMode::mfpc), Error);  // index of another cloud
+    const FoveationRegions regions = foveation_regions(index, config.structures, FoveationMode::mfpc);
+    EXPECT_THROW(downsample_regions(other, regions, config.structures, Downsample::voxel), Error);
+    FoveationRegions hand_made;
+    hand_made.structures = 2;
+    hand_made.levels = 3;
+    hand_made.offsets.assign(9, 1);
+    hand_made.offsets[0] = 0;
+    hand_made.members = {1000};
+    EXPECT_THROW(downsample_regions(cloud, hand_made, config.structures, Downsample::voxel), Error);
 }
 
 TEST(Foveate, EmptyCloudGivesEmptyRegions)

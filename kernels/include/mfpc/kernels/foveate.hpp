@@ -11,14 +11,28 @@
 
 namespace mfpc {
 
+// A stretch of the index's point order (positions begin..end of PointIndex::point_order()) that
+// lies in one region; `voxel` names the index voxel when the run is that whole voxel.
+struct RegionRun {
+    static constexpr std::uint32_t partial = 0xFFFFFFFFu;
+    std::uint32_t begin = 0;
+    std::uint32_t end = 0;
+    std::uint32_t voxel = partial;
+};
+
 // The members of every level region (structure l, level k) of a foveation, before downsampling.
-// Region r = l * (m + 1) + k. Members are point indices into the indexed cloud, ascending within a
-// region, whatever the index and the thread count.
+// Region r = l * (m + 1) + k. Members are point indices into the indexed cloud, in the index's point
+// order (voxel by voxel), which does not depend on the thread count. Regions made by
+// foveation_regions also keep their members as runs of the index's point order, so downsampling can
+// take whole index voxels at once; they refer to that index, which must outlive them.
 struct FoveationRegions {
     int structures = 0;
     int levels = 0;  // m
-    std::vector<std::uint32_t> offsets;  // region_count() + 1 entries
+    std::vector<std::uint32_t> offsets;  // region_count() + 1 entries into members
     std::vector<std::uint32_t> members;
+    std::vector<std::uint32_t> run_offsets;  // region_count() + 1 entries into runs, or empty
+    std::vector<RegionRun> runs;
+    const PointIndex* index = nullptr;  // the index the runs refer to
     // Points covered by at least one structure, and (point, structure) coverage pairs. Their
     // difference is what redundancy treatment removes: |raw| - |mfpc| before downsampling.
     std::size_t covered_points = 0;
@@ -68,11 +82,12 @@ struct FoveatedCloud {
 // Downsamples each region on its own with its structure's d_k; regions never mix. A voxel grid
 // anchored at the world origin, voxel (i, j, k) = floor(p * (1 / d_k)) per axis in double (a
 // multiplication by the inverse, as PCL's VoxelGrid):
-//  - voxel:   the centroid of the voxel's points, summed in double in ascending point index
-//             (normals averaged and renormalised, colours averaged; the source position is the
-//             voxel's lowest-index point's);
+//  - voxel:   the centroid of the voxel's points, summed in double in member order (normals
+//             averaged and renormalised, colours averaged; the source position is the voxel's
+//             lowest-index point's); a whole index voxel inside one downsampling voxel is added
+//             without computing its points' voxels;
 //  - uniform: the voxel's original point nearest the voxel centre (ties: the lowest index).
-// Output: regions in order; within a region, voxels in the order of their lowest-index point;
+// Output: regions in order; within a region, voxels in the order of their first member;
 // d_k = 0 keeps every member.
 FoveatedCloud downsample_regions(const PointCloud& cloud, const FoveationRegions& regions,
                                  std::span<const FoveatedStructure> structures, Downsample downsample);
