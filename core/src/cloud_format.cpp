@@ -75,8 +75,14 @@ bool is_integer(ScalarType type)
 float narrow_to_float(double value)
 {
     constexpr double largest = std::numeric_limits<float>::max();
-    if (value > largest) return std::numeric_limits<float>::infinity();
-    if (value < -largest) return -std::numeric_limits<float>::infinity();
+    // Halfway from the largest float to 2^128: from here on, round-to-nearest gives infinity.
+    // Below it a number still rounds to the largest float ("3.4028235e38", FLT_MAX's shortest
+    // text, is a little above FLT_MAX), so that case is answered here rather than left to a cast.
+    constexpr double overflow = 0x1.ffffffp127;
+    if (value >= overflow) return std::numeric_limits<float>::infinity();
+    if (value <= -overflow) return -std::numeric_limits<float>::infinity();
+    if (value > largest) return std::numeric_limits<float>::max();
+    if (value < -largest) return -std::numeric_limits<float>::max();
     return static_cast<float>(value);
 }
 

@@ -52,8 +52,9 @@ bool load_as_count(const std::uint8_t* bytes, ScalarType type, bool swap_bytes, 
 // Loads 4 bytes as they are (a packed rgb/rgba field).
 std::uint32_t load_bits32(const std::uint8_t* bytes);
 
-// `value` rounded to float, with ±infinity beyond float's range (a plain cast
-// would be undefined behaviour there).
+// `value` rounded to the nearest float, ±infinity beyond float's range (a plain cast would be
+// undefined behaviour there). The PCD, PLY and foveation config readers send every double that
+// becomes a float through here.
 float narrow_to_float(double value);
 
 // Whole-token parsers for text data: false when the token is not entirely a number of that kind
@@ -67,6 +68,7 @@ bool parse_signed(std::string_view token, std::int64_t& value);
 void split_words(std::string_view line, std::vector<std::string_view>& tokens);
 
 // `text` quoted for a one-line error message: at most 60 characters, control bytes shown as '?'.
+// Also used by the foveation config reader for every piece of user text it reports.
 std::string quoted(std::string_view text);
 
 // Rows of text data need at least two bytes a value (the value and a separator), so no more than

@@ -2,16 +2,14 @@
 
 #include <algorithm>
 #include <cctype>
-#include <cerrno>
-#include <cstring>
 #include <fstream>
+#include <span>
 #include <string>
-#include <system_error>
-#include <vector>
 
 #include "cloud_format.hpp"
 #include "mfpc/core/atomic_file.hpp"
 #include "mfpc/core/error.hpp"
+#include "mfpc/core/text_file.hpp"
 
 namespace mfpc {
 
@@ -31,27 +29,13 @@ CloudFormat format_of(const std::filesystem::path& path)
                                    " (expected .pcd or .ply)");
 }
 
-// The whole file: both formats are parsed from memory, so reading never depends on stream state
-// and every bound can be checked against the real size before anything is allocated for points.
-std::vector<std::uint8_t> read_whole_file(const std::filesystem::path& path, const std::string& where)
+// The whole file (read_text_file: missing, directory, FIFO and unreadable files each get their own
+// reason): both formats are parsed from memory, so reading never depends on stream state and
+// every bound can be checked against the real size before anything is allocated for points.
+std::string read_whole_file(const std::filesystem::path& path)
 {
-    std::error_code error;
-    const auto status = std::filesystem::status(path, error);
-    if (!std::filesystem::exists(status)) throw Error(where, "no such file");
-    if (std::filesystem::is_directory(status)) throw Error(where, "is a directory, not a cloud file");
-    // A FIFO or device could block forever or never end.
-    if (!std::filesystem::is_regular_file(status)) throw Error(where, "not a regular file");
-    const std::uintmax_t size = std::filesystem::file_size(path, error);
-    if (error) throw Error(where, "cannot read its size: " + error.message());
-    if (size == 0) throw Error(where, "file is empty");
-
-    std::ifstream in(path, std::ios::binary);
-    if (!in) throw Error(where, std::string("cannot open for reading: ") + std::strerror(errno));
-    std::vector<std::uint8_t> bytes(size);
-    in.read(reinterpret_cast<char*>(bytes.data()), static_cast<std::streamsize>(size));
-    if (static_cast<std::uintmax_t>(in.gcount()) != size) {
-        throw Error(where, "read only " + std::to_string(in.gcount()) + " of " + std::to_string(size) + " bytes");
-    }
+    std::string bytes = read_text_file(path);
+    if (bytes.empty()) throw Error(path.string(), "file is empty");
     return bytes;
 }
 
@@ -67,11 +51,30 @@ const char* to_string(CloudEncoding encoding)
     return "unknown";
 }
 
+CloudEncoding parse_cloud_encoding(std::string_view text, const std::string& where)
+{
+    for (const CloudEncoding encoding : {CloudEncoding::ascii, CloudEncoding::binary, CloudEncoding::binary_compressed}) {
+        if (text == to_string(encoding)) return encoding;
+    }
+    throw Error(where, "must be ascii, binary or binary_compressed, got " + detail::quoted(text));
+}
+
+void check_cloud_write_options(const std::filesystem::path& path, const CloudWriteOptions& options)
+{
+    if (format_of(path) == CloudFormat::pcd) return;
+    if (options.encoding == CloudEncoding::binary_compressed) {
+        throw Error(path.string(), "PLY has no binary_compressed encoding (use ascii or binary)");
+    }
+    if (options.organized) throw Error(path.string(), "PLY cannot store an organized grid (write .pcd for that)");
+}
+
 PointCloud read_cloud(const std::filesystem::path& path, CloudReadReport* report)
 {
     const std::string where = path.string();
     const CloudFormat format = format_of(path);
-    const std::vector<std::uint8_t> bytes = read_whole_file(path, where);
+    const std::string file = read_whole_file(path);
+    // The parsers take bytes; char data may be read as unsigned char, so no copy is needed.
+    const std::span<const std::uint8_t> bytes(reinterpret_cast<const std::uint8_t*>(file.data()), file.size());
     CloudReadReport local_report;
     CloudReadReport& filled = report ? *report : local_report;
     filled = CloudReadReport{};
@@ -81,6 +84,7 @@ PointCloud read_cloud(const std::filesystem::path& path, CloudReadReport* report
 void write_cloud(const std::filesystem::path& path, const PointCloud& cloud, const CloudWriteOptions& options)
 {
     const std::string where = path.string();
+    check_cloud_write_options(path, options);
     const CloudFormat format = format_of(path);
     check_cloud(cloud, where.c_str());
     // Both readers refuse a file without points, so writing one would only defer the error.

@@ -1,21 +1,21 @@
 #include "mfpc/core/foveation_config.hpp"
 
-#include <cerrno>
+#include <algorithm>
+#include <cctype>
 #include <charconv>
 #include <cmath>
 #include <cstdint>
-#include <cstring>
-#include <fstream>
 #include <initializer_list>
 #include <limits>
 #include <set>
-#include <sstream>
 #include <string>
 #include <vector>
 
 #include <nlohmann/json.hpp>
 
+#include "cloud_format.hpp"  // quoted, narrow_to_float
 #include "mfpc/core/error.hpp"
+#include "mfpc/core/text_file.hpp"
 
 namespace mfpc {
 
@@ -56,7 +56,19 @@ double read_back(const std::string& text)
 // order as FoveatedStructure::set_fovea_center). to_json checks its centres with this very function.
 float offset_from_center(double center, float outer_min, float outer_size)
 {
-    return static_cast<float>(center - double(outer_min) - 0.5 * double(outer_size));
+    // Centre and box are each within float range, but their difference need not be.
+    return detail::narrow_to_float(center - double(outer_min) - 0.5 * double(outer_size));
+}
+
+// A key of the document as it goes into a key path: a plain name as it is, anything else quoted
+// (control characters shown as '?'), so that a message stays one line and a key holding '.' or
+// ": " cannot pose as a path.
+std::string key_text(const std::string& key)
+{
+    const bool plain = !key.empty() && key.size() <= 60 && std::all_of(key.begin(), key.end(), [](char c) {
+        return std::isalnum(static_cast<unsigned char>(c)) || c == '_' || c == '-';
+    });
+    return plain ? key : detail::quoted(key);
 }
 
 // Rejects duplicate keys while parsing (nlohmann would silently keep the last one) and names them
@@ -117,7 +129,7 @@ private:
                 text += "[" + std::to_string(frame.count - 1) + "]";
             } else {
                 if (!text.empty()) text += ".";
-                text += frame.key;
+                text += key_text(frame.key);
             }
         }
         return text;
@@ -152,7 +164,7 @@ public:
 
     static std::string join(const std::string& key, const std::string& member)
     {
-        return key.empty() ? member : key + "." + member;
+        return key.empty() ? key_text(member) : key + "." + key_text(member);
     }
 
     float read_float(const json& value, const std::string& key) const
@@ -161,8 +173,8 @@ public:
             fail(key, std::string("must be a number, not ") + value.type_name());
         }
         const double number = value.get<double>();
-        const float result = static_cast<float>(number);
-        if (!std::isfinite(number) || !std::isfinite(result)) {
+        const float result = detail::narrow_to_float(number);
+        if (!std::isfinite(result)) {
             fail(key, "must be a finite number in float range");
         }
         return result;
@@ -186,7 +198,8 @@ public:
     Eigen::Vector3f read_vector(const json& value, const std::string& key) const
     {
         const std::vector<double> numbers = read_numbers(value, key, 3);
-        return Eigen::Vector3f(float(numbers[0]), float(numbers[1]), float(numbers[2]));
+        return Eigen::Vector3f(detail::narrow_to_float(numbers[0]), detail::narrow_to_float(numbers[1]),
+                               detail::narrow_to_float(numbers[2]));
     }
 
     Eigen::Vector3f read_size(const json& value, const std::string& key) const
@@ -301,7 +314,7 @@ public:
             structure.fovea_offset[axis] =
                 has_center ? offset_from_center(fovea[axis], structure.outer_min[axis],
                                                 structure.outer_size[axis])
-                           : static_cast<float>(fovea[axis]);
+                           : detail::narrow_to_float(fovea[axis]);
         }
         keep_fovea_inside(structure, fovea_key, has_center);
 
@@ -312,18 +325,18 @@ public:
                      "must not be negative (0 keeps every point)");
             }
         }
-        structure.density_outer = float(density[0]);
-        structure.density_fovea = float(density[1]);
+        structure.density_outer = detail::narrow_to_float(density[0]);
+        structure.density_fovea = detail::narrow_to_float(density[1]);
 
         const std::vector<double> radius =
             read_numbers(required("keypoint_radius"), join(key, "keypoint_radius"), 2);
         for (std::size_t i = 0; i < 2; ++i) {
-            if (!(float(radius[i]) > 0.0f)) {
+            if (!(detail::narrow_to_float(radius[i]) > 0.0f)) {
                 fail(join(key, "keypoint_radius") + "[" + std::to_string(i) + "]", "must be positive");
             }
         }
-        structure.keypoint_radius_outer = float(radius[0]);
-        structure.keypoint_radius_fovea = float(radius[1]);
+        structure.keypoint_radius_outer = detail::narrow_to_float(radius[0]);
+        structure.keypoint_radius_fovea = detail::narrow_to_float(radius[1]);
         return structure;
     }
 
@@ -359,7 +372,7 @@ std::string json_number(float value)
 {
     if (!std::isfinite(value)) throw Error("foveation config", "non-finite number cannot be written");
     const std::string shortest = format_number(value);
-    if (static_cast<float>(read_back(shortest)) == value) return shortest;
+    if (detail::narrow_to_float(read_back(shortest)) == value) return shortest;
     return format_number(double(value));
 }
 
@@ -416,12 +429,7 @@ FoveationConfig parse_foveation_config(std::string_view json_text, const std::st
 FoveationConfig read_foveation_config(const std::filesystem::path& path, FoveaPolicy policy,
                                       std::vector<std::string>* warnings)
 {
-    std::ifstream in(path, std::ios::binary);
-    if (!in) throw Error(path.string(), std::string("cannot open: ") + std::strerror(errno));
-    std::ostringstream text;
-    text << in.rdbuf();
-    if (in.bad()) throw Error(path.string(), "cannot read");
-    return parse_foveation_config(text.str(), path.string(), policy, warnings);
+    return parse_foveation_config(read_text_file(path), path.string(), policy, warnings);
 }
 
 std::string to_json(const FoveationConfig& config)
@@ -489,8 +497,7 @@ FoveationMode parse_foveation_mode(std::string_view text, const std::string& whe
          {FoveationMode::none, FoveationMode::single, FoveationMode::raw, FoveationMode::mfpc}) {
         if (text == to_string(mode)) return mode;
     }
-    throw Error(where, "unknown foveation mode '" + std::string(text) +
-                           "' (expected none, single, raw or mfpc)");
+    throw Error(where, "unknown foveation mode " + detail::quoted(text) + " (expected none, single, raw or mfpc)");
 }
 
 Downsample parse_downsample(std::string_view text, const std::string& where)
@@ -498,7 +505,7 @@ Downsample parse_downsample(std::string_view text, const std::string& where)
     for (Downsample downsample : {Downsample::voxel, Downsample::uniform}) {
         if (text == to_string(downsample)) return downsample;
     }
-    throw Error(where, "unknown downsample '" + std::string(text) + "' (expected voxel or uniform)");
+    throw Error(where, "unknown downsample " + detail::quoted(text) + " (expected voxel or uniform)");
 }
 
 }  // namespace mfpc

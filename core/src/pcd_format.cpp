@@ -260,13 +260,21 @@ PcdLayout find_layout(const PcdHeader& header, const std::string& where)
         *targets[axis] = single(*f);
     }
 
-    const auto nx = find("normal_x");
-    const auto ny = find("normal_y");
-    const auto nz = find("normal_z");
-    if (nx && ny && nz) {
-        layout.normal = std::array<std::size_t, 3>{single(*nx), single(*ny), single(*nz)};
-    } else if (nx || ny || nz) {
-        throw Error(where, "normals need all of normal_x normal_y normal_z (FIELDS " + all_names + ")");
+    // PCL spells the normal normal_x normal_y normal_z; some tools write nx ny nz. Either is read,
+    // in full, and not both.
+    const std::array<std::optional<std::size_t>, 3> pcl_normal = {find("normal_x"), find("normal_y"), find("normal_z")};
+    const std::array<std::optional<std::size_t>, 3> short_normal = {find("nx"), find("ny"), find("nz")};
+    const auto count = [](const std::array<std::optional<std::size_t>, 3>& fields) {
+        return std::count_if(fields.begin(), fields.end(), [](const auto& f) { return f.has_value(); });
+    };
+    if (count(pcl_normal) != 0 && count(short_normal) != 0) {
+        throw Error(where, "normals given both as normal_x normal_y normal_z and as nx ny nz (FIELDS " + all_names + ")");
+    }
+    const auto& normal = count(short_normal) != 0 ? short_normal : pcl_normal;
+    if (count(normal) == 3) {
+        layout.normal = std::array<std::size_t, 3>{single(*normal[0]), single(*normal[1]), single(*normal[2])};
+    } else if (count(normal) != 0) {
+        throw Error(where, "normals need all of normal_x normal_y normal_z (or nx ny nz) (FIELDS " + all_names + ")");
     }
 
     const auto rgb = find("rgb");

@@ -50,6 +50,20 @@ struct PlyHeader {
 // The vertex properties that become the cloud, in this order; -1 marks a property the cloud skips.
 enum Slot : int { slot_x, slot_y, slot_z, slot_nx, slot_ny, slot_nz, slot_red, slot_green, slot_blue, slot_count };
 constexpr std::array<const char*, slot_count> slot_names = {"x", "y", "z", "nx", "ny", "nz", "red", "green", "blue"};
+// PCL's PLY writer spells the normal normal_x normal_y normal_z; most other tools write nx ny nz.
+constexpr std::array<const char*, 3> pcl_normal_names = {"normal_x", "normal_y", "normal_z"};
+
+// The slot a vertex property fills, or -1.
+int slot_of(std::string_view name)
+{
+    for (int slot = 0; slot < slot_count; ++slot) {
+        if (name == slot_names[slot]) return slot;
+    }
+    for (int axis = 0; axis < 3; ++axis) {
+        if (name == pcl_normal_names[axis]) return slot_nx + axis;
+    }
+    return -1;
+}
 
 struct VertexLayout {
     std::size_t element = 0;             // position of the vertex element in the header
@@ -168,23 +182,30 @@ VertexLayout find_vertex_layout(const PlyHeader& header, const std::string& wher
     const PlyElement& element = header.elements[*vertex];
 
     std::array<bool, slot_count> found{};
+    std::array<std::string_view, slot_count> found_as{};  // the property name that filled each slot
     layout.slot_of_property.assign(element.properties.size(), -1);
     for (std::size_t p = 0; p < element.properties.size(); ++p) {
         const PlyProperty& property = element.properties[p];
-        for (int slot = 0; slot < slot_count; ++slot) {
-            if (property.name != slot_names[slot]) continue;
-            if (found[slot]) throw Error(where, "vertex property " + property.name + " appears twice");
-            if (property.is_list) throw Error(where, "vertex property " + property.name + " is a list, expected a number");
-            found[slot] = true;
-            layout.slot_of_property[p] = slot;
-            layout.types[slot] = property.type;
+        const int slot = slot_of(property.name);
+        if (slot < 0) continue;
+        if (found[slot] && found_as[slot] == property.name) {
+            throw Error(where, "vertex property " + property.name + " appears twice");
         }
+        if (found[slot]) {
+            throw Error(where, "vertex has both " + std::string(found_as[slot]) + " and " + property.name +
+                                   " (expected one spelling of the normal)");
+        }
+        if (property.is_list) throw Error(where, "vertex property " + property.name + " is a list, expected a number");
+        found[slot] = true;
+        found_as[slot] = property.name;
+        layout.slot_of_property[p] = slot;
+        layout.types[slot] = property.type;
     }
     for (int slot : {slot_x, slot_y, slot_z}) {
         if (!found[slot]) throw Error(where, std::string("vertex element has no ") + slot_names[slot] + " property");
     }
     const int normal_count = found[slot_nx] + found[slot_ny] + found[slot_nz];
-    if (normal_count != 0 && normal_count != 3) throw Error(where, "normals need all of nx ny nz");
+    if (normal_count != 0 && normal_count != 3) throw Error(where, "normals need all of nx ny nz (or normal_x normal_y normal_z)");
     layout.normals = normal_count == 3;
     const int color_count = found[slot_red] + found[slot_green] + found[slot_blue];
     if (color_count != 0 && color_count != 3) throw Error(where, "colours need all of red green blue");
@@ -392,12 +413,9 @@ PointCloud read_ply(std::span<const std::uint8_t> file, const std::string& where
     return cloud;
 }
 
-std::string ply_file_bytes(const PointCloud& cloud, const CloudWriteOptions& options, const std::string& where)
+std::string ply_file_bytes(const PointCloud& cloud, const CloudWriteOptions& options, const std::string& /*where*/)
 {
-    if (options.organized) throw Error(where, "PLY cannot store an organized grid (write .pcd for that)");
-    if (options.encoding == CloudEncoding::binary_compressed) {
-        throw Error(where, "PLY has no binary_compressed encoding (use ascii or binary)");
-    }
+    // write_cloud has refused organized and binary_compressed PLY (check_cloud_write_options).
     const bool binary = options.encoding == CloudEncoding::binary;
     const bool normals = cloud.has_normals();
     const bool colors = cloud.has_colors();

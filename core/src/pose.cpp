@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <numbers>
 
 #include "mfpc/core/error.hpp"
@@ -20,6 +21,10 @@ Pose pose_from_row_major(std::span<const double> values, const std::string& wher
         }
     }
     if (!m.allFinite()) throw Error(where, "pose has a non-finite entry");
+    // Converting a double beyond float range to float is undefined.
+    if (m.cwiseAbs().maxCoeff() > double(std::numeric_limits<float>::max())) {
+        throw Error(where, "pose has an entry beyond float range");
+    }
     constexpr double tolerance = 1e-3;
     if ((m.row(3) - Eigen::RowVector4d(0, 0, 0, 1)).cwiseAbs().maxCoeff() > tolerance) {
         throw Error(where, "last row of the pose is not (0 0 0 1)");

@@ -1,61 +1,119 @@
 #include "mfpc/recognition/ground_truth.hpp"
 
-#include <fstream>
-#include <sstream>
+#include <algorithm>
+#include <cctype>
+#include <cmath>
+#include <cstdint>
+#include <initializer_list>
+#include <limits>
+#include <string>
+#include <vector>
 
 #include <nlohmann/json.hpp>
 
 #include "mfpc/core/error.hpp"
+#include "mfpc/core/text_file.hpp"
 
 namespace mfpc {
+
+namespace {
+
+using nlohmann::json;
+
+// nlohmann's message without its "[json.exception.parse_error.101] " prefix, the part a person
+// needs (the same as the foveation config reader reports; that helper is private to core).
+std::string without_prefix(const std::string& message)
+{
+    const auto start = message.find("] ");
+    return start == std::string::npos ? message : message.substr(start + 2);
+}
+
+// A key of the file as it goes into a key path: a plain name as it is, anything else JSON-escaped
+// in quotes (at most 60 bytes of it), so that a key holding a newline cannot make a message two
+// lines, nor a key holding '.' or ": " pose as a path. (The foveation config reader does the
+// same with core's private quoting helper.)
+std::string key_text(const std::string& key)
+{
+    constexpr std::size_t longest = 60;
+    const bool plain = !key.empty() && key.size() <= longest && std::all_of(key.begin(), key.end(), [](char c) {
+        return std::isalnum(static_cast<unsigned char>(c)) || c == '_' || c == '-';
+    });
+    if (plain) return key;
+    const std::string shown = key.size() > longest ? key.substr(0, longest) + "..." : key;
+    return json(shown).dump(-1, ' ', true, json::error_handler_t::replace);
+}
+
+// `prefix` is what comes before a key in its path: "file: " or "file: instances[0].".
+void check_keys(const json& object, const std::string& prefix, std::initializer_list<const char*> allowed)
+{
+    for (const auto& item : object.items()) {
+        bool known = false;
+        for (const char* name : allowed) known = known || item.key() == name;
+        if (!known) throw Error(prefix + key_text(item.key()), "unknown key");
+    }
+}
+
+GroundTruthInstance read_instance(const json& instance, const std::string& where)
+{
+    if (!instance.is_object()) throw Error(where, "must be an object");
+    check_keys(instance, where + ".", {"transform", "object", "visible_points"});
+
+    GroundTruthInstance out;
+    const auto transform = instance.find("transform");
+    if (transform == instance.end()) throw Error(where + ".transform", "missing");
+    if (!transform->is_array()) throw Error(where + ".transform", "must be an array of 16 numbers");
+    std::vector<double> values;
+    for (std::size_t i = 0; i < transform->size(); ++i) {
+        const json& value = (*transform)[i];
+        const std::string element = where + ".transform[" + std::to_string(i) + "]";
+        if (!value.is_number()) throw Error(element, std::string("must be a number, not ") + value.type_name());
+        // The pose is stored in float; a larger number would not survive the conversion.
+        if (!(std::abs(value.get<double>()) <= std::numeric_limits<float>::max())) {
+            throw Error(element, "beyond the float range");
+        }
+        values.push_back(value.get<double>());
+    }
+    out.transform = pose_from_row_major(values, where + ".transform");
+
+    if (const auto object = instance.find("object"); object != instance.end()) {
+        if (!object->is_string()) throw Error(where + ".object", std::string("must be a string, not ") + object->type_name());
+        out.object = object->get<std::string>();
+    }
+    if (const auto visible = instance.find("visible_points"); visible != instance.end()) {
+        // -1 is how GroundTruthInstance says "not given", so a count is never negative.
+        const bool count = visible->is_number_unsigned() &&
+                           visible->get<std::uint64_t>() <= std::uint64_t(std::numeric_limits<long>::max());
+        if (!count) throw Error(where + ".visible_points", "must be a non-negative integer");
+        out.visible_points = visible->get<long>();
+    }
+    return out;
+}
+
+}  // namespace
 
 GroundTruth read_ground_truth(const std::filesystem::path& path)
 {
     const std::string file = path.string();
-    std::ifstream in(path, std::ios::binary);
-    if (!in) throw Error(file, "cannot open ground truth file");
-    std::stringstream text;
-    text << in.rdbuf();
-
-    nlohmann::json json;
+    json root;
     try {
-        json = nlohmann::json::parse(text.str());
-    } catch (const nlohmann::json::parse_error& e) {
-        throw Error(file, std::string("invalid JSON: ") + e.what());
+        root = json::parse(read_text_file(path));
+    } catch (const json::exception& error) {
+        // A syntax error (parse_error) or a number beyond double (out_of_range, "1e999").
+        throw Error(file, "invalid JSON: " + without_prefix(error.what()));
     }
-    if (!json.is_object()) throw Error(file, "ground truth must be a JSON object");
+    if (!root.is_object()) throw Error(file, "ground truth must be a JSON object");
+    check_keys(root, file + ": ", {"model", "instances"});
 
     GroundTruth truth;
-    if (auto model = json.find("model"); model != json.end()) {
-        if (!model->is_string()) throw Error(file + ": model", "must be a string");
+    if (const auto model = root.find("model"); model != root.end()) {
+        if (!model->is_string()) throw Error(file + ": model", std::string("must be a string, not ") + model->type_name());
         truth.model = model->get<std::string>();
     }
-    const auto instances = json.find("instances");
-    if (instances == json.end() || !instances->is_array()) {
-        throw Error(file + ": instances", "missing, or not an array");
-    }
+    const auto instances = root.find("instances");
+    if (instances == root.end()) throw Error(file + ": instances", "missing");
+    if (!instances->is_array()) throw Error(file + ": instances", "must be an array");
     for (std::size_t i = 0; i < instances->size(); ++i) {
-        const std::string key = file + ": instances[" + std::to_string(i) + "]";
-        const auto& instance = (*instances)[i];
-        if (!instance.is_object()) throw Error(key, "must be an object");
-        const auto transform = instance.find("transform");
-        if (transform == instance.end() || !transform->is_array()) {
-            throw Error(key + ".transform", "missing, or not an array of 16 numbers");
-        }
-        std::vector<double> values;
-        for (const auto& v : *transform) {
-            if (!v.is_number()) throw Error(key + ".transform", "holds a value that is not a number");
-            values.push_back(v.get<double>());
-        }
-        GroundTruthInstance out;
-        out.transform = pose_from_row_major(values, key + ".transform");
-        if (auto object = instance.find("object"); object != instance.end() && object->is_string()) {
-            out.object = object->get<std::string>();
-        }
-        if (auto visible = instance.find("visible_points"); visible != instance.end() && visible->is_number_integer()) {
-            out.visible_points = visible->get<long>();
-        }
-        truth.instances.push_back(std::move(out));
+        truth.instances.push_back(read_instance((*instances)[i], file + ": instances[" + std::to_string(i) + "]"));
     }
     return truth;
 }

@@ -447,6 +447,78 @@ TEST(CloudIo, PlySkipsElementsAndListsBeforeAndAfterTheVertices)
     }
 }
 
+// PCL spells normals normal_x normal_y normal_z (its PCD files, and PLY from some writers), other
+// tools nx ny nz; both formats read either spelling, and refuse a file that gives both.
+TEST(CloudIo, NormalsReadUnderEitherSpelling)
+{
+    TempDir dir;
+    const auto check = [](const PointCloud& cloud) {
+        ASSERT_EQ(cloud.size(), 2u);
+        ASSERT_TRUE(cloud.has_normals());
+        EXPECT_EQ(cloud.points[1], Point(4, 5, 6));
+        EXPECT_EQ(cloud.normals[0], Point(0, 0, 1));
+        EXPECT_EQ(cloud.normals[1], Point(0.6f, 0.8f, 0));
+    };
+    const std::string rows = "1 2 3 0 0 1\n4 5 6 0.6 0.8 0\n";
+    const std::vector<float> values = {1, 2, 3, 0, 0, 1, 4, 5, 6, 0.6f, 0.8f, 0};
+    for (const std::string names : {"normal_x normal_y normal_z", "nx ny nz"}) {
+        SCOPED_TRACE(names);
+        std::string ply_properties;
+        for (std::size_t start = 0; start < names.size();) {
+            const std::size_t end = std::min(names.find(' ', start), names.size());
+            ply_properties += "property float " + names.substr(start, end - start) + "\n";
+            start = end + 1;
+        }
+        const std::string ply_header = "ply\nformat ascii 1.0\nelement vertex 2\nproperty float x\nproperty float y\n"
+                                       "property float z\n" + ply_properties + "end_header\n";
+        check(read_cloud(dir.write("ascii.ply", ply_header + rows)));
+        std::string binary_header = ply_header;
+        binary_header.replace(binary_header.find("ascii"), 5, "binary_little_endian");
+        check(read_cloud(dir.write("binary.ply", binary_header + bytes_of(values))));
+
+        const std::string pcd_header = "# .PCD v0.7\nVERSION 0.7\nFIELDS x y z " + names +
+                                       "\nSIZE 4 4 4 4 4 4\nTYPE F F F F F F\nCOUNT 1 1 1 1 1 1\nWIDTH 2\nHEIGHT 1\n"
+                                       "VIEWPOINT 0 0 0 1 0 0 0\nPOINTS 2\n";
+        check(read_cloud(dir.write("ascii.pcd", pcd_header + "DATA ascii\n" + rows)));
+        check(read_cloud(dir.write("binary.pcd", pcd_header + "DATA binary\n" + bytes_of(values))));
+    }
+
+    EXPECT_TRUE(read_fails_with(
+        dir.write("both.ply", "ply\nformat ascii 1.0\nelement vertex 1\nproperty float x\nproperty float y\n"
+                              "property float z\nproperty float nx\nproperty float ny\nproperty float nz\n"
+                              "property float normal_x\nend_header\n1 2 3 0 0 1 0\n"),
+        "vertex has both nx and normal_x"));
+    EXPECT_TRUE(read_fails_with(
+        dir.write("part.ply", "ply\nformat ascii 1.0\nelement vertex 1\nproperty float x\nproperty float y\n"
+                              "property float z\nproperty float normal_x\nproperty float normal_y\nend_header\n"
+                              "1 2 3 0 0\n"),
+        "normals need all of nx ny nz (or normal_x normal_y normal_z)"));
+    const auto pcd = [](const std::string& fields) {
+        return "# .PCD v0.7\nVERSION 0.7\nFIELDS x y z " + fields + "\nSIZE 4 4 4 4 4 4\nTYPE F F F F F F\n"
+               "COUNT 1 1 1 1 1 1\nWIDTH 1\nHEIGHT 1\nVIEWPOINT 0 0 0 1 0 0 0\nPOINTS 1\nDATA ascii\n1 2 3 0 0 1\n";
+    };
+    EXPECT_TRUE(read_fails_with(dir.write("both.pcd", pcd("nx ny normal_z")),
+                                "normals given both as normal_x normal_y normal_z and as nx ny nz"));
+    EXPECT_TRUE(read_fails_with(dir.write("part.pcd", pcd("nx ny curvature")), "normals need all of"));
+}
+
+// A double coordinate rounds to the nearest float: the largest float's shortest text is a little
+// above it as a double and still rounds down to it; a number past halfway to 2^128 becomes
+// infinity, and its point is dropped as non-finite.
+TEST(CloudIo, DoubleCoordinatesRoundToTheNearestFloat)
+{
+    TempDir dir;
+    const std::string text = "ply\nformat ascii 1.0\nelement vertex 3\nproperty double x\nproperty double y\n"
+                             "property double z\nend_header\n3.4028235e38 -3.4028235e38 1\n3.4028236e38 0 0\n"
+                             "1e300 0 0\n";
+    CloudReadReport report;
+    const PointCloud cloud = read_cloud(dir.write("edge.ply", text), &report);
+    ASSERT_EQ(cloud.size(), 1u);
+    EXPECT_EQ(cloud.points[0],
+              Point(std::numeric_limits<float>::max(), -std::numeric_limits<float>::max(), 1));
+    EXPECT_EQ(report.points_in, 3u);
+}
+
 // ---------------------------------------------------------------------------------------------
 // PCL as the oracle
 

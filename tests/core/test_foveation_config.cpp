@@ -2,6 +2,7 @@
 #include <cmath>
 #include <filesystem>
 #include <fstream>
+#include <limits>
 #include <random>
 #include <string>
 #include <utility>
@@ -88,6 +89,7 @@ void expect_error(const std::string& text, const std::string& where, const std::
     SCOPED_TRACE(text);
     const std::string what = error_of(text);
     EXPECT_EQ(what.rfind("cfg.json: " + where, 0), 0u) << what;
+    EXPECT_EQ(what.find('\n'), std::string::npos) << what;
     if (!reason.empty()) {
         EXPECT_NE(what.find(reason), std::string::npos) << what;
     }
@@ -301,6 +303,80 @@ TEST(FoveationConfig, RejectsDuplicateKeys)
                  "structures[2].density", "duplicate key");
 }
 
+// User text (keys, values) reaches messages quoted, with control characters shown as '?', so a
+// key holding a newline cannot split the one line the command line prints.
+TEST(FoveationConfig, UserTextInMessagesStaysOnOneLine)
+{
+    // JSON's "\n" escape: the key itself holds a newline.
+    expect_error(config_text(with(base_config(), "a\\nb", "1")), "'a?b'", "unknown key");
+    EXPECT_EQ(error_of(config_text(with(base_config(), "a\\nb", "1"))), "cfg.json: 'a?b': unknown key");
+    const auto bad = [](const std::string& key, const std::string& value) {
+        return config_text(base_config({with(base_structure(), key, value)}));
+    };
+    expect_error(bad("x\\u0007y", "1"), "structures[0].'x?y'", "unknown key");
+    // A key holding '.' or ": " is quoted, so it cannot pose as a path.
+    expect_error(bad("outer_min.x", "1"), "structures[0].'outer_min.x'", "unknown key");
+    expect_error(bad(std::string(100, 'k'), "1"), "structures[0].'" + std::string(60, 'k') + "...'", "unknown key");
+    expect_error("{\"a\\nb\": {\"c\\rd\": 1, \"c\\rd\": 2}}", "'a?b'.'c?d'", "duplicate key");
+    expect_error(config_text(with(base_config(), "downsample", "\"vox\\nel\"")), "downsample",
+                 "unknown downsample 'vox?el'");
+    try {
+        parse_foveation_mode("mf\npc", "--mode");
+        FAIL() << "an unknown mode was accepted";
+    } catch (const Error& error) {
+        EXPECT_EQ(std::string(error.what()), "--mode: unknown foveation mode 'mf?pc' (expected none, single, raw or mfpc)");
+    }
+}
+
+// 1e300 is a double but no float: each numeric key rejects it by name (a plain cast to float
+// would be undefined behaviour, which the sanitizer build would report).
+TEST(FoveationConfig, RejectsNumbersBeyondFloatInEveryKey)
+{
+    const auto bad = [](const std::string& key, const std::string& value) {
+        return config_text(base_config({with(base_structure(), key, value)}));
+    };
+    const std::string s = "structures[0]";
+    for (const std::string huge : {"1e300", "-1e300", "3.4028236e38"}) {
+        SCOPED_TRACE(huge);
+        expect_error(bad("outer_min", "[0, " + huge + ", 0]"), s + ".outer_min[1]", "finite number in float range");
+        expect_error(bad("outer_size", "[" + huge + ", 4, 4]"), s + ".outer_size[0]", "float range");
+        expect_error(bad("fovea_size", "[2, 2, " + huge + "]"), s + ".fovea_size[2]", "float range");
+        expect_error(bad("fovea_offset", "[" + huge + ", 0, 0]"), s + ".fovea_offset[0]", "float range");
+        const Fields centred = with(with(base_structure(), "fovea_offset", ""), "fovea_center", "[0, " + huge + ", 0]");
+        expect_error(config_text(base_config({centred})), s + ".fovea_center[1]", "float range");
+        expect_error(bad("density", "[0.02, " + huge + "]"), s + ".density[1]", "float range");
+        expect_error(bad("keypoint_radius", "[" + huge + ", 0.01]"), s + ".keypoint_radius[0]", "float range");
+        expect_error(config_text(with(base_config(), "levels", huge)), "levels", "integer");
+        expect_error(bad("levels", huge), s + ".levels", "integer");
+    }
+    expect_error(config_text(with(base_config(), "levels", "1e999")), "invalid JSON", "number overflow");
+}
+
+// The centre and the outer box are each in float range, but F = (c - Δ) - S_0/2 is not: F is
+// infinite, the fovea lies outside, and it is clamped (or refused) like any other far fovea.
+TEST(FoveationConfig, FoveaCentreFarBeyondTheBoxIsOutside)
+{
+    const Fields structure = with(with(with(base_structure(), "outer_min", "[-3e38, 0, 0]"), "fovea_offset", ""),
+                                  "fovea_center", "[3e38, 2, 2]");
+    const std::string text = config_text(base_config({structure}));
+    EXPECT_NE(error_of(text, FoveaPolicy::strict).find("fovea outside the outer box on x"), std::string::npos);
+    std::vector<std::string> warnings;
+    const FoveationConfig config = parse_foveation_config(text, "cfg.json", FoveaPolicy::clamp, &warnings);
+    EXPECT_EQ(config.structures[0].fovea_offset.x(), config.structures[0].fovea_offset_limit().x());
+    EXPECT_EQ(warnings.size(), 1u);
+}
+
+// "3.4028235e38", the shortest text of the largest float, is a little above it as a double and
+// rounds down to it; one step further rounds to infinity and is refused (above).
+TEST(FoveationConfig, ReadsTheLargestFloat)
+{
+    const Fields structure = with(base_structure(), "density", "[3.4028235e38, 0.005]");
+    const FoveationConfig config = parse_foveation_config(config_text(base_config({structure})), "cfg.json");
+    EXPECT_EQ(config.structures[0].density_outer, std::numeric_limits<float>::max());
+    EXPECT_EQ(parse_foveation_config(to_json(config), "back").structures[0].density_outer,
+              std::numeric_limits<float>::max());
+}
+
 TEST(FoveationConfig, ToJsonRoundTrips)
 {
     FoveationConfig config;
@@ -397,6 +473,15 @@ TEST(FoveationConfig, ReadsAFileAndNamesItInErrors)
         FAIL() << "a missing file was read";
     } catch (const Error& error) {
         EXPECT_EQ(error.where(), (dir / "absent.json").string());
+        EXPECT_EQ(error.reason(), "no such file");
+    }
+    // A directory once read as an empty stream and was reported as invalid JSON.
+    std::filesystem::create_directory(dir / "folder.json");
+    try {
+        read_foveation_config(dir / "folder.json");
+        FAIL() << "a directory was read";
+    } catch (const Error& error) {
+        EXPECT_EQ(std::string(error.what()), (dir / "folder.json").string() + ": is a directory");
     }
 }
 

@@ -4,6 +4,7 @@
 #include <cstdint>
 #include <filesystem>
 #include <string>
+#include <string_view>
 #include <vector>
 
 #include "mfpc/core/point_cloud.hpp"
@@ -45,6 +46,13 @@ struct CloudWriteOptions {
 void write_cloud(const std::filesystem::path& path, const PointCloud& cloud,
                  const CloudWriteOptions& options = {});
 
+// Checks that a cloud could be written to `path` with `options` (a .pcd or .ply extension;
+// binary_compressed and organized output only for PCD) without touching the file system, so a
+// caller can reject a bad output before long work. write_cloud makes the same checks.
+void check_cloud_write_options(const std::filesystem::path& path, const CloudWriteOptions& options);
+
 const char* to_string(CloudEncoding encoding);
+// "ascii", "binary" or "binary_compressed"; throws mfpc::Error naming `where` otherwise.
+CloudEncoding parse_cloud_encoding(std::string_view text, const std::string& where = "encoding");
 
 }  // namespace mfpc
