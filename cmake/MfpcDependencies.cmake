@@ -9,7 +9,7 @@ macro(mfpc_require package debian_package)
   find_package(${package} ${ARGN} QUIET)
   if(NOT ${package}_FOUND)
     message(FATAL_ERROR "MFPC needs ${package}: install the Debian package '${debian_package}' "
-                        "(scripts/install-deps.sh installs every dependency)")
+                        "(scripts/install-deps.sh installs every dependency). ${${package}_NOT_FOUND_MESSAGE}")
   endif()
 endmacro()
 
@@ -27,7 +27,7 @@ mfpc_require(TBB libtbb-dev CONFIG)
 mfpc_require(Eigen3 libeigen3-dev 3.3 NO_MODULE)
 
 # Debian ships OpenVDB's find module (not a config) beside its other CMake files.
-list(APPEND CMAKE_MODULE_PATH "/usr/lib/x86_64-linux-gnu/cmake/OpenVDB")
+list(APPEND CMAKE_MODULE_PATH "/usr/lib/${CMAKE_LIBRARY_ARCHITECTURE}/cmake/OpenVDB")
 mfpc_require(OpenVDB libopenvdb-dev)
 
 mfpc_require(flann libflann-dev CONFIG)

@@ -69,10 +69,12 @@ TEST(Cli, UsageErrorsExitTwo)
 {
     for (const char* args : {"", "frobnicate", "info", "--threads 0 info x.pcd", "info --bogus x.pcd",
                              "foveate", "foveate --procedural in.pcd", "foveate --procedural --mode sideways",
-                             "foveate --procedural --structure 1"}) {
+                             "foveate --procedural --structure 1", "foveate --procedural --mode single",
+                             "foveate --procedural --mode single --structure 9"}) {
         const Result r = run(args);
         EXPECT_EQ(r.exit_code, 2) << "mfpc " << args << "\n" << r.err;
         EXPECT_EQ(r.err.rfind("mfpc: ", 0), 0u) << "mfpc " << args << "\n" << r.err;
+        EXPECT_EQ(line_count(r.err), 1) << "mfpc " << args << "\n" << r.err;
     }
 }
 
@@ -93,6 +95,8 @@ TEST(Cli, InputErrorsAreOneLineAndExitOne)
         {"foveate '" + cloud.string() + "' --config '" + bad_config.string() + "'", "outer_min"},
         {"foveate '" + cloud.string() + "' --config '" + (dir / "nope.json").string() + "'", "nope.json"},
         {"foveate --procedural -o '" + (dir / "no/such/dir/out.pcd").string() + "'", "out.pcd"},
+        {"foveate --procedural -o '" + (dir / "out.xyz").string() + "'", "out.xyz"},
+        {"foveate --procedural --encoding binary_compressed -o '" + (dir / "out.ply").string() + "'", "binary_compressed"},
     };
     for (const auto& [args, needle] : cases) {
         const Result r = run(args);
@@ -191,7 +195,7 @@ TEST(Cli, FoveateSharedSceneWithShippedConfig)
               raw["points_before_downsampling"].get<std::size_t>() -
                   treated["points_before_downsampling"].get<std::size_t>());
     const Result single = run("foveate '" + scene.string() + "' --config '" + config.string() + "' --mode single");
-    EXPECT_EQ(single.exit_code, 1);
+    EXPECT_EQ(single.exit_code, 2);
     EXPECT_NE(single.err.find("--structure"), std::string::npos);
 }
 

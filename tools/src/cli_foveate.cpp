@@ -32,68 +32,70 @@ struct FoveateOptions {
     float index_voxel = PointIndexParams{}.voxel_size;
 };
 
-CloudEncoding parse_encoding(const std::string& text)
-{
-    if (text == "ascii") return CloudEncoding::ascii;
-    if (text == "binary") return CloudEncoding::binary;
-    if (text == "binary_compressed") return CloudEncoding::binary_compressed;
-    throw Error("--encoding", "must be ascii, binary or binary_compressed, got '" + text + "'");
-}
-
 void run_foveate(const FoveateOptions& options, const GlobalOptions& global)
 {
+    // Everything that can be checked before the work is checked first.
     const FoveationMode mode = parse_foveation_mode(options.mode, "--mode");
-    const CloudEncoding encoding = parse_encoding(options.encoding);
+    const CloudWriteOptions write_options{parse_cloud_encoding(options.encoding, "--encoding"), false};
     if (options.procedural == !options.input.empty()) {
         throw CLI::ValidationError("foveate", "give exactly one of IN and --procedural");
     }
     if (options.config.empty() && !options.procedural && mode != FoveationMode::none) {
         throw CLI::ValidationError("foveate", "--config is required (except with --procedural or --mode none)");
     }
+    if (mode != FoveationMode::single && options.structure >= 0) {
+        throw CLI::ValidationError("--structure", "only applies to --mode single");
+    }
+    if (!options.output.empty()) check_cloud_write_options(options.output, write_options);
 
     Stopwatch clock;
     Stopwatch total_clock;
     nlohmann::ordered_json timings;
 
-    // The cloud, and the foveation config that goes with it.
-    PointCloud cloud;
-    CloudReadReport report;
     FoveationConfig config;
     std::vector<std::string> warnings;
     const FoveaPolicy policy = options.strict ? FoveaPolicy::strict : FoveaPolicy::clamp;
+    if (!options.config.empty()) config = read_foveation_config(options.config, policy, &warnings);
+    for (const auto& w : warnings) warn(w);
+
+    // The cloud (and, for the procedural scene, its config unless one was given).
+    PointCloud cloud;
+    CloudReadReport report;
+    std::string input = options.input;
     if (options.procedural) {
         ProceduralSceneParams params;
         params.seed = options.procedural_seed;
         params.objects = options.procedural_objects;
         ProceduralScene scene = make_procedural_scene(params);
         cloud = std::move(scene.cloud);
-        config = std::move(scene.fovea);
+        if (options.config.empty()) config = std::move(scene.fovea);
         report.points_in = cloud.source_size();
         report.points_finite = cloud.size();
         report.width = cloud.width;
         report.height = cloud.height;
+        input = "procedural scene (seed " + std::to_string(params.seed) + ", " + std::to_string(params.objects) +
+                " objects)";
         timings["generate"] = clock.lap_ms();
     } else {
         cloud = read_cloud(options.input, &report);
         timings["read"] = clock.lap_ms();
     }
-    if (!options.config.empty()) config = read_foveation_config(options.config, policy, &warnings);
-    for (const auto& w : warnings) warn(w);
     if (!options.downsample.empty()) config.downsample = parse_downsample(options.downsample, "--downsample");
 
     int single_structure = 0;
     if (mode == FoveationMode::single) {
-        if (options.structure >= 0) {
-            single_structure = options.structure;
-        } else if (config.structures.size() > 1) {
-            throw Error("--mode single", "the config has " + std::to_string(config.structures.size()) +
-                                             " structures; choose one with --structure J");
+        if (options.structure >= int(config.structures.size())) {
+            throw CLI::ValidationError("--structure", "structure " + std::to_string(options.structure) +
+                                                          " does not exist: the config has " +
+                                                          std::to_string(config.structures.size()));
         }
-    } else if (options.structure >= 0) {
-        throw CLI::ValidationError("--structure", "only applies to --mode single");
+        if (options.structure < 0 && config.structures.size() > 1) {
+            throw CLI::ValidationError("--mode single", "the config has " + std::to_string(config.structures.size()) +
+                                                            " structures; choose one with --structure J");
+        }
+        single_structure = std::max(options.structure, 0);
     }
 
-    clock.lap_ms();
     const PointIndex index(cloud.points, PointIndexParams{options.index_voxel});
     timings["index"] = clock.lap_ms();
     FoveatedCloud result;
@@ -102,18 +104,42 @@ void run_foveate(const FoveateOptions& options, const GlobalOptions& global)
         timings["label"] = 0.0;
         timings["downsample"] = clock.lap_ms();
     } else {
+        // foveate() in two timed steps.
         const FoveationRegions regions = foveation_regions(index, config.structures, mode, single_structure);
         timings["label"] = clock.lap_ms();
         result = downsample_regions(cloud, regions, config.structures, config.downsample);
         timings["downsample"] = clock.lap_ms();
     }
-    if (result.cloud.empty()) {
-        warn("no point of the cloud lies inside any structure: the output is empty");
-    }
 
     if (!options.output.empty()) {
-        write_cloud(options.output, result.cloud, CloudWriteOptions{encoding, false});
+        if (result.cloud.empty()) {
+            throw Error(options.output, "nothing to write: no point of the cloud lies inside any structure");
+        }
+        write_cloud(options.output, result.cloud, write_options);
+    } else if (result.cloud.empty()) {
+        warn("no point of the cloud lies inside any structure");
     }
+    if (!options.regions_dir.empty()) {
+        std::error_code error;
+        std::filesystem::create_directories(options.regions_dir, error);
+        if (error) throw Error(options.regions_dir, "cannot create directory: " + error.message());
+        // Output points are grouped by region, so each region is a run of equal labels.
+        for (std::size_t begin = 0; begin < result.cloud.size();) {
+            std::size_t end = begin;
+            std::vector<std::uint32_t> indices;
+            while (end < result.cloud.size() && result.labels[end] == result.labels[begin]) {
+                indices.push_back(std::uint32_t(end++));
+            }
+            const RegionLabel label = result.labels[begin];
+            const auto name = "structure" + std::to_string(label.structure) + "_level" + std::to_string(label.level) +
+                              ".pcd";
+            write_cloud(std::filesystem::path(options.regions_dir) / name, select(result.cloud, indices), write_options);
+            begin = end;
+        }
+    }
+    timings["write"] = clock.lap_ms();
+    timings["total"] = total_clock.lap_ms();
+
     nlohmann::ordered_json regions_json = nlohmann::ordered_json::array();
     for (const RegionSummary& region : result.regions) {
         if (mode == FoveationMode::single && region.structure != single_structure) continue;
@@ -123,31 +149,10 @@ void run_foveate(const FoveateOptions& options, const GlobalOptions& global)
                                 {"points_before", region.points_before},
                                 {"points_after", region.points_after}});
     }
-    if (!options.regions_dir.empty()) {
-        std::error_code error;
-        std::filesystem::create_directories(options.regions_dir, error);
-        if (error) throw Error(options.regions_dir, "cannot create directory: " + error.message());
-        std::size_t begin = 0;
-        for (const RegionSummary& region : result.regions) {
-            std::vector<std::uint32_t> indices(region.points_after);
-            for (std::size_t i = 0; i < indices.size(); ++i) indices[i] = std::uint32_t(begin + i);
-            begin += region.points_after;
-            if (indices.empty()) continue;
-            const auto name = "structure" + std::to_string(region.structure) + "_level" +
-                              std::to_string(region.level) + ".pcd";
-            write_cloud(std::filesystem::path(options.regions_dir) / name, select(result.cloud, indices),
-                        CloudWriteOptions{encoding, false});
-        }
-    }
-    timings["write"] = clock.lap_ms();
-    timings["total"] = total_clock.lap_ms();
-
     const std::size_t redundant_removed = mode == FoveationMode::mfpc ? result.redundant_points : 0;
     if (print_table(global)) {
         std::vector<std::pair<std::string, std::string>> rows = {
-            {"input", options.procedural ? "procedural scene (seed " + std::to_string(options.procedural_seed) + ", " +
-                                               std::to_string(options.procedural_objects) + " objects)"
-                                         : options.input},
+            {"input", input},
             {"mode", to_string(mode)},
             {"downsample", to_string(config.downsample)},
             {"structures", std::to_string(config.structures.size()) + " (levels m = " + std::to_string(config.levels) +
@@ -173,7 +178,7 @@ void run_foveate(const FoveateOptions& options, const GlobalOptions& global)
         std::cout << '\n';
     }
     write_json(global, {
-        {"input", options.procedural ? std::string("procedural") : options.input},
+        {"input", input},
         {"mode", to_string(mode)},
         {"downsample", to_string(config.downsample)},
         {"structures", config.structures.size()},

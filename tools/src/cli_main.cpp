@@ -53,7 +53,7 @@ int main(int argc, char** argv)
     } catch (const CLI::CallForVersion& e) {
         return app.exit(e);
     } catch (const CLI::ParseError& e) {
-        std::cerr << "mfpc: " << e.what() << "\nRun 'mfpc --help' for usage.\n";
+        std::cerr << "mfpc: " << e.what() << " (see 'mfpc --help')\n";
         return 2;
     } catch (const mfpc::Error& e) {
         std::cerr << "mfpc: " << e.what() << '\n';

@@ -165,7 +165,7 @@ ProceduralScene make_procedural_scene(const ProceduralSceneParams& params)
         primitives.push_back(p);
     }
 
-    // Camera 1.1 m above the table's near edge side, looking at the table centre.
+    // Camera 0.9 m above the table and 1 m in front of its centre, looking at the centre.
     const Vec eye(0.0, -1.0, 0.9);
     const Vec target(0.0, 0.0, 0.0);
     const Vec forward = (target - eye).normalized();
@@ -210,8 +210,8 @@ ProceduralScene make_procedural_scene(const ProceduralSceneParams& params)
     }
     if (cloud.empty()) throw Error("procedural scene", "no ray hit the table");
 
-    // One structure per object: the outer box is the object's box grown by 10 cm on every side
-    // (clipped below at the table, in table coordinates), the fovea is the object itself.
+    // One structure per object: the outer box is the object's box (in the camera frame) grown by
+    // 10 cm on every side, the fovea is the object's box itself.
     scene.fovea.levels = params.levels;
     scene.fovea.downsample = Downsample::voxel;
     for (const Primitive& primitive : primitives) {

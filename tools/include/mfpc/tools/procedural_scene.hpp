@@ -14,8 +14,8 @@ namespace mfpc {
 // intersected exactly with those primitives. The result is an organized cloud in the camera frame
 // (x right, y down, z forward; NaN pixels, where a ray misses everything, are dropped and the index
 // map keeps each point's pixel) and a foveation config with one structure around each object.
-// It needs no input file, so the quick start and the tests can run anywhere; the Embree scanner of
-// `mfpc synth` is the general tool.
+// It needs no input file, so the quick start and the tests can run anywhere. The same seed gives the
+// same scene with the same standard library (the random distributions are libstdc++'s).
 struct ProceduralSceneParams {
     std::uint32_t seed = 1;          // object placement; the same seed gives the same scene
     std::uint32_t objects = 4;       // 1..8 objects on the table
