@@ -74,6 +74,8 @@ void check_structures(std::span<const FoveatedStructure> structures)
     if (structures.empty()) throw Error("foveation", "no structures");
     const int m = structures[0].levels;
     if (m < 1) throw Error("foveation", "levels must be at least 1, got " + std::to_string(m));
+    // Levels travel as 8-bit numbers through the labelling (LevelRange).
+    if (m > 126) throw Error("foveation", "levels must be at most 126, got " + std::to_string(m));
     for (std::size_t s = 1; s < structures.size(); ++s) {
         if (structures[s].levels != m) {
             throw Error("foveation", "structures have different levels (structure 0: " + std::to_string(m) +
@@ -344,17 +346,35 @@ FoveationRegions foveation_regions(const PointIndex& index, std::span<const Fove
     const Coverage coverage = total_coverage(emitted);
     out.covered_points = coverage.covered_points;
     out.coverage_pairs = coverage.coverage_pairs;
-    if (mode == FoveationMode::raw) {
-        // Every structure on its own; structure s emits only its own regions, so the chunks of all
-        // passes, in structure order, group into the concatenation.
-        emitted.clear();
-        for (int s = 0; s < structure_count; ++s) {
-            const int active[] = {s};
-            auto pass = label_runs(index, table, active);
-            std::move(pass.begin(), pass.end(), std::back_inserter(emitted));
-        }
+    if (mode == FoveationMode::mfpc) {
+        assemble(emitted, index, out);
+        return out;
     }
-    assemble(emitted, index, out);
+
+    // raw: every structure on its own, their regions concatenated in structure order.
+    emitted.clear();
+    const std::size_t levels = std::size_t(out.levels) + 1;
+    out.offsets.assign(std::size_t(out.region_count()) + 1, 0);
+    out.run_offsets.assign(std::size_t(out.region_count()) + 1, 0);
+    for (int s = 0; s < structure_count; ++s) {
+        const int active[] = {s};
+        FoveationRegions single;
+        single.structures = out.structures;
+        single.levels = out.levels;
+        assemble(label_runs(index, table, active), index, single);
+        const std::size_t first = std::size_t(s) * levels;
+        for (std::size_t r = first; r < first + levels; ++r) {
+            out.offsets[r] = std::uint32_t(out.members.size()) + single.offsets[r] - single.offsets[first];
+            out.run_offsets[r] = std::uint32_t(out.runs.size()) + single.run_offsets[r] - single.run_offsets[first];
+        }
+        out.members.insert(out.members.end(), single.members.begin() + single.offsets[first],
+                           single.members.begin() + single.offsets[first + levels]);
+        out.runs.insert(out.runs.end(), single.runs.begin() + single.run_offsets[first],
+                        single.runs.begin() + single.run_offsets[first + levels]);
+    }
+    out.offsets.back() = std::uint32_t(out.members.size());
+    out.run_offsets.back() = std::uint32_t(out.runs.size());
+    out.index = &index;
     return out;
 }
 

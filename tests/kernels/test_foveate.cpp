@@ -277,6 +277,9 @@ TEST(Foveate, RejectsContradictoryInput)
     EXPECT_THROW(foveation_regions(index, structures, FoveationMode::mfpc), Error);
     structures[1].levels = 3;
     EXPECT_THROW(foveation_regions(index, structures, FoveationMode::single, 2), Error);
+    auto deep = structures;
+    for (auto& s : deep) s.levels = 127;
+    EXPECT_THROW(foveation_regions(index, deep, FoveationMode::mfpc), Error);
     EXPECT_THROW(foveation_regions(index, std::span<const FoveatedStructure>(), FoveationMode::mfpc), Error);
 
     PointCloud other = cloud;
