@@ -235,7 +235,7 @@ ProceduralScene make_procedural_scene(const ProceduralSceneParams& params)
         structure.fovea_size = object_camera.size();
         structure.set_fovea_center(object_camera.center());
         structure.density_outer = 0.02f;
-        structure.density_fovea = 0.004f;
+        structure.density_fovea = 0.005f;
         structure.keypoint_radius_outer = 0.03f;
         structure.keypoint_radius_fovea = 0.01f;
         scene.fovea.structures.push_back(structure);
