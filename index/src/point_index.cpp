@@ -108,6 +108,7 @@ PointIndex::PointIndex(std::span<const Point> points, const PointIndexParams& pa
             for (std::uint32_t k = v.begin; k < v.end; ++k) {
                 const Point& p = points[point_order_[k]];
                 ordered_points_[k] = p;
+                v.sum += p.cast<double>();
                 v.bounds.min = v.bounds.min.cwiseMin(p);
                 v.bounds.max = v.bounds.max.cwiseMax(p);
             }

@@ -594,7 +594,7 @@ RegionOutput downsample_region(const PointCloud& cloud, const RegionMembers& reg
                 if (v == voxel(bounds.max)) {
                     const std::uint32_t slot = slot_for(v, order[run.begin]);
                     Sum& sum = voxels[slot];
-                    for (std::uint32_t k = run.begin; k < run.end; ++k) sum.xyz += points[k].cast<double>();
+                    sum.xyz += index_voxels[run.voxel].sum;
                     if (colors) {
                         for (std::uint32_t k = run.begin; k < run.end; ++k) add_color(sum, order[k]);
                     }

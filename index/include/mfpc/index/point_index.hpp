@@ -20,11 +20,13 @@ struct PointIndexParams {
     float voxel_size = 0.005f;
 };
 
-// One occupied voxel of the index: the points it holds (a range of point_order()) and their tight
-// bounds. Tight bounds are the min/max of the float coordinates themselves, not the voxel's
-// nominal extent, so "every point of this voxel is inside box B" is exactly bounds ⊆ B.
+// One occupied voxel of the index: the points it holds (a range of point_order()), their tight
+// bounds and their sum (so a downsampling voxel can take a whole index voxel without its points).
+// Tight bounds are the min/max of the float coordinates themselves, not the voxel's nominal
+// extent, so "every point of this voxel is inside box B" is exactly bounds ⊆ B.
 struct PointIndexVoxel {
     Box bounds;
+    Eigen::Vector3d sum = Eigen::Vector3d::Zero();  // of its points, in double, in point_order()
     std::uint32_t begin = 0;
     std::uint32_t end = 0;
     std::uint32_t size() const { return end - begin; }
