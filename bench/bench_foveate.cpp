@@ -19,15 +19,10 @@
 #include "mfpc/core/foveation_config.hpp"
 #include "mfpc/kernels/foveate.hpp"
 #include "reference_foveation.hpp"
+#include "shared_data.hpp"
 
 namespace mfpc {
 namespace {
-
-std::filesystem::path data_dir()
-{
-    if (const char* dir = std::getenv("MFPC_DATA_DIR")) return dir;
-    return MFPC_SHARED_DATA_DIR;
-}
 
 struct RealScene {
     PointCloud cloud;
@@ -38,7 +33,7 @@ struct RealScene {
 const RealScene* real_scene()
 {
     static std::unique_ptr<RealScene> scene = [] {
-        const auto path = data_dir() / "milk_cartoon_all_small_clorox.pcd";
+        const auto path = test::shared_data_dir() / "milk_cartoon_all_small_clorox.pcd";
         if (!std::filesystem::exists(path)) return std::unique_ptr<RealScene>();
         auto s = std::make_unique<RealScene>();
         s->cloud = read_cloud(path);

@@ -9,14 +9,9 @@
 
 #include <gtest/gtest.h>
 
-namespace mfpc::test {
+#include "shared_data.hpp"
 
-// The folder of shared real clouds (../shared/data), or MFPC_DATA_DIR when set.
-inline std::filesystem::path shared_data_dir()
-{
-    if (const char* dir = std::getenv("MFPC_DATA_DIR")) return dir;
-    return MFPC_SHARED_DATA_DIR;
-}
+namespace mfpc::test {
 
 // The path of a shared cloud; the calling test is skipped, saying which file is missing, when it
 // is absent (CI and developers have it; a bare checkout may not).
