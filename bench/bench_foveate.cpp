@@ -82,12 +82,14 @@ std::size_t reference_foveate(const PointCloud& cloud, const FoveationConfig& co
     return kept;
 }
 
-#define MFPC_REQUIRE_SCENE(state, scene)                                                   \
-    const RealScene* scene = real_scene();                                                 \
-    if (!scene) {                                                                          \
+// Declares `var` = source(), or skips the benchmark when the shared scene is absent.
+#define MFPC_REQUIRE_DATA(state, var, source)                                              \
+    const auto* var = source();                                                            \
+    if (!var) {                                                                            \
         state.SkipWithError("shared data milk_cartoon_all_small_clorox.pcd is absent");    \
         return;                                                                            \
     }
+#define MFPC_REQUIRE_SCENE(state, scene) MFPC_REQUIRE_DATA(state, scene, real_scene)
 
 void BM_RealScene_Ours(benchmark::State& state)
 {
@@ -249,12 +251,7 @@ const LargeCloud* large_cloud()
     return large.get();
 }
 
-#define MFPC_REQUIRE_LARGE(state, large)                                                   \
-    const LargeCloud* large = large_cloud();                                               \
-    if (!large) {                                                                          \
-        state.SkipWithError("shared data milk_cartoon_all_small_clorox.pcd is absent");    \
-        return;                                                                            \
-    }
+#define MFPC_REQUIRE_LARGE(state, large) MFPC_REQUIRE_DATA(state, large, large_cloud)
 
 void BM_Large_IndexBuild(benchmark::State& state)
 {

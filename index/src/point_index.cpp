@@ -122,23 +122,34 @@ PointIndex::~PointIndex() = default;
 PointIndex::PointIndex(PointIndex&&) noexcept = default;
 PointIndex& PointIndex::operator=(PointIndex&&) noexcept = default;
 
+namespace {
+
+// Appends the points of the grid's voxels overlapping [lo, hi] (world) that pass `keep`, ascending.
+// The voxel range is widened by one so that rounding in world-to-index never loses a point on a
+// face; `keep` makes the exact decision.
+template <typename Keep>
+void collect(const openvdb::tools::PointIndexGrid& grid, const openvdb::math::Transform& xform,
+             const Eigen::Vector3f& lo, const Eigen::Vector3f& hi, Keep&& keep, std::vector<std::uint32_t>& out)
+{
+    const openvdb::Coord first =
+        xform.worldToIndexCellCentered(openvdb::Vec3d(lo.x(), lo.y(), lo.z())) - openvdb::Coord(1);
+    const openvdb::Coord last =
+        xform.worldToIndexCellCentered(openvdb::Vec3d(hi.x(), hi.y(), hi.z())) + openvdb::Coord(1);
+    openvdb::tools::PointIndexGrid::ConstAccessor accessor = grid.getConstAccessor();
+    for (openvdb::tools::PointIndexIterator<> it(openvdb::CoordBBox(first, last), accessor); it; ++it) {
+        if (keep(*it)) out.push_back(*it);
+    }
+    std::sort(out.begin(), out.end());
+}
+
+}  // namespace
+
 void PointIndex::points_in_box(const Box& box, std::vector<std::uint32_t>& out) const
 {
     out.clear();
     if (!box.valid() || points_.empty()) return;
-    // Widen by one voxel so that rounding in world-to-index never loses a point on a face; the
-    // exact closed-box test below decides.
-    const auto& xform = *grid_->transform;
-    const openvdb::Coord lo = xform.worldToIndexCellCentered(
-                                  openvdb::Vec3d(box.min.x(), box.min.y(), box.min.z())) - openvdb::Coord(1);
-    const openvdb::Coord hi = xform.worldToIndexCellCentered(
-                                  openvdb::Vec3d(box.max.x(), box.max.y(), box.max.z())) + openvdb::Coord(1);
-    openvdb::tools::PointIndexGrid::ConstAccessor accessor = grid_->grid->getConstAccessor();
-    openvdb::tools::PointIndexIterator<> it(openvdb::CoordBBox(lo, hi), accessor);
-    for (; it; ++it) {
-        if (box.contains(points_[*it])) out.push_back(*it);
-    }
-    std::sort(out.begin(), out.end());
+    collect(*grid_->grid, *grid_->transform, box.min, box.max,
+            [&](std::uint32_t i) { return box.contains(points_[i]); }, out);
 }
 
 void PointIndex::points_in_radius(const Point& center, float radius, std::vector<std::uint32_t>& out) const
@@ -147,19 +158,8 @@ void PointIndex::points_in_radius(const Point& center, float radius, std::vector
     if (!(radius >= 0.0f) || points_.empty()) return;
     const Eigen::Vector3f extent = Eigen::Vector3f::Constant(radius);
     const float radius_squared = radius * radius;
-    const auto& xform = *grid_->transform;
-    const Eigen::Vector3f lo_world = center - extent;
-    const Eigen::Vector3f hi_world = center + extent;
-    const openvdb::Coord lo = xform.worldToIndexCellCentered(
-                                  openvdb::Vec3d(lo_world.x(), lo_world.y(), lo_world.z())) - openvdb::Coord(1);
-    const openvdb::Coord hi = xform.worldToIndexCellCentered(
-                                  openvdb::Vec3d(hi_world.x(), hi_world.y(), hi_world.z())) + openvdb::Coord(1);
-    openvdb::tools::PointIndexGrid::ConstAccessor accessor = grid_->grid->getConstAccessor();
-    openvdb::tools::PointIndexIterator<> it(openvdb::CoordBBox(lo, hi), accessor);
-    for (; it; ++it) {
-        if ((points_[*it] - center).squaredNorm() <= radius_squared) out.push_back(*it);
-    }
-    std::sort(out.begin(), out.end());
+    collect(*grid_->grid, *grid_->transform, center - extent, center + extent,
+            [&](std::uint32_t i) { return (points_[i] - center).squaredNorm() <= radius_squared; }, out);
 }
 
 std::size_t PointIndex::memory_bytes() const

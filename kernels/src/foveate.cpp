@@ -178,15 +178,10 @@ std::vector<Emitted> label_runs(const PointIndex& index, const RegionTable& tabl
     };
     auto emit_whole = [&](const std::vector<Reach>& reach, std::uint32_t voxel_begin, std::uint32_t voxel_end,
                           Emitted& out) {
-        // Structures reach a whole leaf or voxel at a level >= 0, or not at all (at -1).
+        // narrow() keeps only structures that reach the bounds, so a whole range here has a level >= 0.
         std::uint16_t best = no_region;
-        std::size_t covering = 0;
-        for (const Reach& r : reach) {
-            if (r.levels.lowest < 0) continue;
-            ++covering;
-            best = std::min(best, table.rank[table.region(r.structure, r.levels.lowest)]);
-        }
-        if (covering == 0) return;
+        for (const Reach& r : reach) best = std::min(best, table.rank[table.region(r.structure, r.levels.lowest)]);
+        const std::size_t covering = reach.size();
         const std::uint16_t region = table.by_rank[best];
         for (std::uint32_t v = voxel_begin; v < voxel_end; ++v) {
             out.regions.push_back(region);
@@ -493,12 +488,15 @@ RegionOutput downsample_region(const PointCloud& cloud, const RegionMembers& reg
     }
 
     // floor(x / d) is monotonic in x, so the box gives the voxel range of every member.
-    const std::string where = "foveation: structure " + std::to_string(structure) + " level " + std::to_string(level);
+    // Built only when an error is thrown: this runs for every region of every call.
+    const auto where = [&] {
+        return "foveation: structure " + std::to_string(structure) + " level " + std::to_string(level);
+    };
     const double d = density;
     const double inverse = 1.0 / d;
     // Voxel coordinates beyond 2^62 would overflow the integer conversion.
     if (std::max(box.min.cwiseAbs().maxCoeff(), box.max.cwiseAbs().maxCoeff()) * inverse > 1e15) {
-        throw Error(where, "coordinates too large for voxels of size " + std::to_string(density));
+        throw Error(where(), "coordinates too large for voxels of size " + std::to_string(density));
     }
     Eigen::Matrix<std::int64_t, 3, 1> lowest;
     Eigen::Matrix<std::int64_t, 3, 1> extent;
@@ -506,7 +504,7 @@ RegionOutput downsample_region(const PointCloud& cloud, const RegionMembers& reg
         lowest[axis] = voxel_of(box.min[axis], inverse);
         extent[axis] = voxel_of(box.max[axis], inverse) - lowest[axis] + 1;
         if (extent[axis] > max_voxels_per_axis) {
-            throw Error(where, "region spans more than 2^21 voxels of size " + std::to_string(density) + " on one axis");
+            throw Error(where(), "region spans more than 2^21 voxels of size " + std::to_string(density) + " on one axis");
         }
     }
     VoxelSlots slots(extent, members.size());
@@ -519,7 +517,7 @@ RegionOutput downsample_region(const PointCloud& cloud, const RegionMembers& reg
                                                   voxel_of(p.z(), inverse) - lowest[2]);
         if (std::uint64_t(v[0]) >= std::uint64_t(extent[0]) || std::uint64_t(v[1]) >= std::uint64_t(extent[1]) ||
             std::uint64_t(v[2]) >= std::uint64_t(extent[2])) {
-            throw Error(where, "a member lies outside the region's box");
+            throw Error(where(), "a member lies outside the region's box");
         }
         return v;
     };
