@@ -1,0 +1,71 @@
+#pragma once
+
+#include <cstdint>
+#include <span>
+#include <vector>
+
+#include "mfpc/core/point_cloud.hpp"
+
+namespace mfpc {
+
+// A hashed uniform grid over a cloud for the fixed-radius and k-nearest queries of the descriptor
+// kernels (normals, LRFs, SHOT). Built once in O(n log n); points are copied in cell order so a
+// query reads contiguous memory. Exact: a radius query returns every point with squared distance
+// <= radius^2, the k-nearest query the k smallest squared distances (ties by lower index).
+// Squared distances are computed in float as dx*dx + dy*dy + dz*dz, in that order, which is what
+// FLANN (PCL's kd-tree) computes, so both agree on which points lie within a radius.
+class NeighborGrid {
+public:
+    // `cell_size` > 0: about the query radius for radius queries; a few point spacings for kNN.
+    NeighborGrid(std::span<const Point> points, float cell_size);
+
+    std::span<const Point> points() const { return points_; }
+    float cell_size() const { return cell_size_; }
+    std::size_t size() const { return points_.size(); }
+
+    // Indices (into points()) and squared distances of the points within `radius` of `center`,
+    // written into the cleared vectors. The order is fixed (cell by cell, ascending index within
+    // a cell) but not by distance.
+    void radius_search(const Point& center, float radius, std::vector<std::uint32_t>& indices,
+                       std::vector<float>& squared_distances) const;
+
+    // The min(k, size()) nearest points to `center`, by ascending (squared distance, index).
+    void knn_search(const Point& center, int k, std::vector<std::uint32_t>& indices,
+                    std::vector<float>& squared_distances) const;
+
+    // knn_search for many queries at once, with the same results: queries that share a cell share
+    // the gathering of their candidates (the 3x3x3 cells around it), which is most of the cost of
+    // a small-k query. Writes min(k, size()) entries per query, query after query.
+    void knn_search_batch(std::span<const Point> queries, int k, std::span<std::uint32_t> indices,
+                          std::span<float> squared_distances) const;
+
+    // The nearest point within `radius` of `center` (ties: the lower index); false when none.
+    bool nearest(const Point& center, float radius, std::uint32_t& index, float& squared_distance) const;
+
+private:
+    // Cells are sorted by (z, y, x), so the cells of one row (fixed y and z) are consecutive and so
+    // are their points: a query reads one contiguous range of points per row it touches.
+    struct Row {
+        std::uint64_t key;         // (z, y) relative to the grid minimum; empty_row when unused
+        std::uint32_t cell_begin;  // range of cells_x_ / cell_begin_
+        std::uint32_t cell_end;
+    };
+    const Row* find_row(int y, int z) const;
+    // Points of row (y, z) whose cells lie in x0..x1: the range [begin, end) of ordered_points_.
+    bool row_range(int y, int z, int x0, int x1, std::uint32_t& begin, std::uint32_t& end) const;
+
+    std::span<const Point> points_;
+    float cell_size_;
+    float inverse_cell_;
+    Eigen::Vector3i min_cell_ = Eigen::Vector3i::Zero();
+    Eigen::Vector3i max_cell_ = Eigen::Vector3i::Zero();
+    std::vector<Point> ordered_points_;          // points in cell order
+    std::vector<std::uint32_t> ordered_indices_;  // their indices into points_
+    std::vector<std::int32_t> cell_x_;            // x of each occupied cell, in cell order
+    std::vector<std::uint32_t> cell_begin_;       // first point of each cell, plus the end
+    std::vector<Row> rows_;                       // open addressing, power-of-two size
+    std::uint64_t row_mask_ = 0;
+    int row_shift_ = 64;
+};
+
+}  // namespace mfpc

@@ -1,0 +1,383 @@
+#include "mfpc/index/neighbor_grid.hpp"
+
+#include <algorithm>
+#include <bit>
+#include <cmath>
+#include <limits>
+#include <string>
+#include <utility>
+
+#include <tbb/blocked_range.h>
+#include <tbb/parallel_for.h>
+#include <tbb/parallel_sort.h>
+
+#include "mfpc/core/error.hpp"
+
+namespace mfpc {
+namespace {
+
+constexpr std::uint64_t empty_row = std::numeric_limits<std::uint64_t>::max();
+constexpr int axis_bits = 21;  // cells per axis < 2^21: a 64-bit key holds all three
+
+inline float squared_distance(const Point& a, const Point& b)
+{
+    const float dx = a.x() - b.x();
+    const float dy = a.y() - b.y();
+    const float dz = a.z() - b.z();
+    return dx * dx + dy * dy + dz * dz;
+}
+
+// Fibonacci hashing: the top bits of the product mix every bit of the key.
+inline std::uint64_t hash_key(std::uint64_t key, int shift) { return (key * 0x9E3779B97F4A7C15ull) >> shift; }
+
+}  // namespace
+
+NeighborGrid::NeighborGrid(std::span<const Point> points, float cell_size)
+    : points_(points), cell_size_(cell_size), inverse_cell_(1.0f / cell_size)
+{
+    if (!(cell_size > 0.0f) || !std::isfinite(cell_size))
+        throw Error("neighbour grid", "cell size must be a positive number, got " + std::to_string(cell_size));
+    if (points.size() >= std::numeric_limits<std::uint32_t>::max())
+        throw Error("neighbour grid", "more than 2^32 - 1 points");
+    if (points.empty()) return;
+
+    std::vector<Eigen::Vector3i> cells(points.size());
+    tbb::parallel_for(tbb::blocked_range<std::size_t>(0, points.size(), 4096), [&](const auto& range) {
+        for (std::size_t i = range.begin(); i < range.end(); ++i) {
+            const Eigen::Vector3f c = (points[i] * inverse_cell_).array().floor();
+            if (!c.allFinite() || c.cwiseAbs().maxCoeff() > 1e9f)
+                throw Error("neighbour grid", "point " + std::to_string(i) + " is not finite or too far out");
+            cells[i] = c.cast<int>();
+        }
+    });
+    min_cell_ = cells[0];
+    max_cell_ = cells[0];
+    for (const auto& c : cells) {
+        min_cell_ = min_cell_.cwiseMin(c);
+        max_cell_ = max_cell_.cwiseMax(c);
+    }
+    const Eigen::Vector3i extent = max_cell_ - min_cell_;
+    if (extent.maxCoeff() >= (1 << axis_bits) - 1)
+        throw Error("neighbour grid", "the cloud spans more than 2^21 cells of " + std::to_string(cell_size) +
+                                          " m on one axis; use a larger cell");
+
+    std::vector<std::pair<std::uint64_t, std::uint32_t>> order(points.size());
+    tbb::parallel_for(tbb::blocked_range<std::size_t>(0, points.size(), 4096), [&](const auto& range) {
+        for (std::size_t i = range.begin(); i < range.end(); ++i) {
+            const Eigen::Vector3i d = cells[i] - min_cell_;
+            order[i] = {(std::uint64_t(d.z()) << (2 * axis_bits)) | (std::uint64_t(d.y()) << axis_bits) |
+                            std::uint64_t(d.x()),
+                        std::uint32_t(i)};
+        }
+    });
+    // Pairs are unique (by index), so the sorted order does not depend on the thread count.
+    tbb::parallel_sort(order.begin(), order.end());
+
+    ordered_points_.resize(points.size());
+    ordered_indices_.resize(points.size());
+    std::size_t row_count = 0;
+    for (std::size_t i = 0; i < order.size(); ++i) {
+        ordered_points_[i] = points[order[i].second];
+        ordered_indices_[i] = order[i].second;
+        const std::uint64_t key = order[i].first;
+        if (i == 0 || key != order[i - 1].first) {
+            cell_x_.push_back(std::int32_t(key & ((1u << axis_bits) - 1)) + min_cell_.x());
+            cell_begin_.push_back(std::uint32_t(i));
+            if (i == 0 || (key >> axis_bits) != (order[i - 1].first >> axis_bits)) ++row_count;
+        }
+    }
+    cell_begin_.push_back(std::uint32_t(points.size()));
+
+    const std::size_t table_size = std::bit_ceil(std::max<std::size_t>(16, row_count * 2));
+    rows_.assign(table_size, Row{empty_row, 0, 0});
+    row_mask_ = table_size - 1;
+    row_shift_ = 64 - std::countr_zero(table_size);
+    for (std::uint32_t begin = 0; begin < cell_x_.size();) {
+        const std::uint64_t row_key = order[cell_begin_[begin]].first >> axis_bits;
+        std::uint32_t end = begin + 1;
+        while (end < cell_x_.size() && (order[cell_begin_[end]].first >> axis_bits) == row_key) ++end;
+        std::uint64_t slot = hash_key(row_key, row_shift_);
+        while (rows_[slot].key != empty_row) slot = (slot + 1) & row_mask_;
+        rows_[slot] = Row{row_key, begin, end};
+        begin = end;
+    }
+}
+
+const NeighborGrid::Row* NeighborGrid::find_row(int y, int z) const
+{
+    if (y < min_cell_.y() || y > max_cell_.y() || z < min_cell_.z() || z > max_cell_.z()) return nullptr;
+    const std::uint64_t key = (std::uint64_t(z - min_cell_.z()) << axis_bits) | std::uint64_t(y - min_cell_.y());
+    std::uint64_t slot = hash_key(key, row_shift_);
+    while (true) {
+        const Row& row = rows_[slot];
+        if (row.key == key) return &row;
+        if (row.key == empty_row) return nullptr;
+        slot = (slot + 1) & row_mask_;
+    }
+}
+
+bool NeighborGrid::row_range(int y, int z, int x0, int x1, std::uint32_t& begin, std::uint32_t& end) const
+{
+    const Row* row = find_row(y, z);
+    if (row == nullptr) return false;
+    const auto first = cell_x_.begin() + row->cell_begin;
+    const auto last = cell_x_.begin() + row->cell_end;
+    const auto lo = std::lower_bound(first, last, x0);
+    const auto hi = std::upper_bound(lo, last, x1);
+    if (lo == hi) return false;
+    begin = cell_begin_[std::size_t(lo - cell_x_.begin())];
+    end = cell_begin_[std::size_t(hi - cell_x_.begin())];
+    return true;
+}
+
+void NeighborGrid::radius_search(const Point& center, float radius, std::vector<std::uint32_t>& indices,
+                                 std::vector<float>& squared_distances) const
+{
+    indices.clear();
+    squared_distances.clear();
+    if (points_.empty() || !(radius >= 0.0f)) return;
+    const float radius2 = radius * radius;
+    // Clamped in float before the int conversion, so a far-away centre cannot overflow it.
+    const Eigen::Vector3f lo_f = ((center.array() - radius) * inverse_cell_).floor();
+    const Eigen::Vector3f hi_f = ((center.array() + radius) * inverse_cell_).floor();
+    const Eigen::Vector3i lo =
+        lo_f.cwiseMax(min_cell_.cast<float>()).cwiseMin(max_cell_.cast<float>() + Eigen::Vector3f::Ones()).cast<int>();
+    const Eigen::Vector3i hi =
+        hi_f.cwiseMin(max_cell_.cast<float>()).cwiseMax(min_cell_.cast<float>() - Eigen::Vector3f::Ones()).cast<int>();
+    if ((hi.array() < lo.array()).any()) return;
+    for (int z = lo.z(); z <= hi.z(); ++z) {
+        for (int y = lo.y(); y <= hi.y(); ++y) {
+            std::uint32_t begin = 0, end = 0;
+            if (!row_range(y, z, lo.x(), hi.x(), begin, end)) continue;
+            for (std::uint32_t i = begin; i < end; ++i) {
+                const float d2 = squared_distance(ordered_points_[i], center);
+                if (d2 < radius2) {
+                    indices.push_back(ordered_indices_[i]);
+                    squared_distances.push_back(d2);
+                }
+            }
+        }
+    }
+}
+
+void NeighborGrid::knn_search(const Point& center, int k, std::vector<std::uint32_t>& indices,
+                              std::vector<float>& squared_distances) const
+{
+    indices.clear();
+    squared_distances.clear();
+    if (points_.empty() || k <= 0) return;
+    const std::size_t want = std::min<std::size_t>(std::size_t(k), points_.size());
+
+    // The best `want` candidates so far as (squared distance, index), kept sorted: for the small k
+    // of normal estimation an insertion beats a heap, and most candidates fail the first compare.
+    // Per thread, so that a query allocates nothing once the thread has seen a k this large.
+    thread_local std::vector<std::pair<float, std::uint32_t>> best;
+    best.clear();
+    best.reserve(want + 1);
+    auto consider = [&](std::uint32_t begin, std::uint32_t end) {
+        for (std::uint32_t i = begin; i < end; ++i) {
+            const std::pair<float, std::uint32_t> candidate{squared_distance(ordered_points_[i], center),
+                                                            ordered_indices_[i]};
+            if (best.size() == want) {
+                if (!(candidate < best.back())) continue;
+                best.pop_back();
+            }
+            best.insert(std::upper_bound(best.begin(), best.end(), candidate), candidate);
+        }
+    };
+
+    const Eigen::Vector3f cf = (center * inverse_cell_).array().floor();
+    const Eigen::Vector3i c = cf.cwiseMax(min_cell_.cast<float>() - Eigen::Vector3f::Constant(2.0f))
+                                  .cwiseMin(max_cell_.cast<float>() + Eigen::Vector3f::Constant(2.0f))
+                                  .cast<int>();
+    // Shells of cells at Chebyshev distance 0, 1, 2, ... from the centre's cell. After shell R
+    // every point closer than the distance from the centre to the faces of the (2R+1)^3 block is
+    // known; rows on the shell's faces are read whole, the others only at their two ends.
+    const int max_ring = std::max((c - min_cell_).cwiseAbs().maxCoeff(), (max_cell_ - c).cwiseAbs().maxCoeff());
+    for (int ring = 0; ring <= max_ring; ++ring) {
+        for (int z = c.z() - ring; z <= c.z() + ring; ++z) {
+            const bool z_face = std::abs(z - c.z()) == ring;
+            for (int y = c.y() - ring; y <= c.y() + ring; ++y) {
+                std::uint32_t begin = 0, end = 0;
+                if (z_face || std::abs(y - c.y()) == ring) {
+                    if (row_range(y, z, c.x() - ring, c.x() + ring, begin, end)) consider(begin, end);
+                } else {
+                    if (row_range(y, z, c.x() - ring, c.x() - ring, begin, end)) consider(begin, end);
+                    if (row_range(y, z, c.x() + ring, c.x() + ring, begin, end)) consider(begin, end);
+                }
+            }
+        }
+        if (best.size() == want) {
+            const Eigen::Vector3f block_lo = (c.array() - ring).cast<float>() * cell_size_;
+            const Eigen::Vector3f block_hi = (c.array() + ring + 1).cast<float>() * cell_size_;
+            // Shrunk by a relative 1e-5: cell membership came from floor(p / cell) in float, which
+            // may put a point a rounding error outside its nominal cell.
+            const float margin = std::min((center - block_lo).minCoeff(), (block_hi - center).minCoeff()) -
+                                 1e-5f * (center.cwiseAbs().maxCoeff() + cell_size_);
+            if (margin > 0.0f && best.back().first < margin * margin) break;
+        }
+    }
+    indices.reserve(best.size());
+    squared_distances.reserve(best.size());
+    for (const auto& [d2, index] : best) {
+        indices.push_back(index);
+        squared_distances.push_back(d2);
+    }
+}
+
+bool NeighborGrid::nearest(const Point& center, float radius, std::uint32_t& index, float& squared_distance_out) const
+{
+    if (points_.empty() || !(radius >= 0.0f)) return false;
+    const float radius2 = radius * radius;
+    const Eigen::Vector3f lo_f = ((center.array() - radius) * inverse_cell_).floor();
+    const Eigen::Vector3f hi_f = ((center.array() + radius) * inverse_cell_).floor();
+    const Eigen::Vector3i lo =
+        lo_f.cwiseMax(min_cell_.cast<float>()).cwiseMin(max_cell_.cast<float>() + Eigen::Vector3f::Ones()).cast<int>();
+    const Eigen::Vector3i hi =
+        hi_f.cwiseMin(max_cell_.cast<float>()).cwiseMax(min_cell_.cast<float>() - Eigen::Vector3f::Ones()).cast<int>();
+    if ((hi.array() < lo.array()).any()) return false;
+    bool found = false;
+    for (int z = lo.z(); z <= hi.z(); ++z) {
+        for (int y = lo.y(); y <= hi.y(); ++y) {
+            std::uint32_t begin = 0, end = 0;
+            if (!row_range(y, z, lo.x(), hi.x(), begin, end)) continue;
+            for (std::uint32_t i = begin; i < end; ++i) {
+                const float d2 = squared_distance(ordered_points_[i], center);
+                if (!(d2 < radius2)) continue;
+                if (!found || d2 < squared_distance_out || (d2 == squared_distance_out && ordered_indices_[i] < index)) {
+                    found = true;
+                    squared_distance_out = d2;
+                    index = ordered_indices_[i];
+                }
+            }
+        }
+    }
+    return found;
+}
+
+void NeighborGrid::knn_search_batch(std::span<const Point> queries, int k, std::span<std::uint32_t> indices,
+                                    std::span<float> squared_distances) const
+{
+    const std::size_t want = k <= 0 ? 0 : std::min<std::size_t>(std::size_t(k), points_.size());
+    if (indices.size() != queries.size() * want || squared_distances.size() != queries.size() * want)
+        throw Error("neighbour grid", "knn_search_batch needs min(k, size) outputs per query");
+    if (want == 0 || queries.empty()) return;
+
+    // Queries grouped by their cell; a query outside the grid's cell range gets a group of its own.
+    constexpr std::uint64_t outside = std::numeric_limits<std::uint64_t>::max();
+    std::vector<std::pair<std::uint64_t, std::uint32_t>> order(queries.size());
+    tbb::parallel_for(tbb::blocked_range<std::size_t>(0, queries.size(), 4096), [&](const auto& range) {
+        for (std::size_t i = range.begin(); i < range.end(); ++i) {
+            const Eigen::Vector3f c = (queries[i] * inverse_cell_).array().floor();
+            std::uint64_t key = outside;
+            if (c.allFinite() && (c.array() >= min_cell_.cast<float>().array()).all() &&
+                (c.array() <= max_cell_.cast<float>().array()).all()) {
+                const Eigen::Vector3i d = c.cast<int>() - min_cell_;
+                key = (std::uint64_t(d.z()) << (2 * axis_bits)) | (std::uint64_t(d.y()) << axis_bits) |
+                      std::uint64_t(d.x());
+            }
+            order[i] = {key, std::uint32_t(i)};
+        }
+    });
+    tbb::parallel_sort(order.begin(), order.end());
+    std::vector<std::uint32_t> groups;  // start of each run of equal keys, plus the end
+    for (std::uint32_t i = 0; i < order.size(); ++i)
+        if (i == 0 || order[i].first != order[i - 1].first || order[i].first == outside) groups.push_back(i);
+    groups.push_back(std::uint32_t(order.size()));
+
+    tbb::parallel_for(tbb::blocked_range<std::size_t>(0, groups.size() - 1, 16), [&](const auto& range) {
+        // Candidates of the current block, as separate coordinate arrays so the distance loop
+        // vectorises; the arithmetic is squared_distance()'s, lane by lane, so results are equal.
+        std::vector<float> xs, ys, zs, d2s;
+        std::vector<std::uint32_t> ids;
+        std::vector<std::pair<float, std::uint32_t>> best;
+        std::vector<std::uint32_t> one_indices;
+        std::vector<float> one_distances;
+        std::vector<std::pair<std::uint64_t, std::uint32_t>> pending, next_pending;
+        constexpr int max_batch_ring = 6;
+        for (std::size_t g = range.begin(); g < range.end(); ++g) {
+            const std::uint32_t first = groups[g], last = groups[g + 1];
+            auto fall_back = [&](std::uint32_t q) {
+                knn_search(queries[q], int(want), one_indices, one_distances);
+                std::copy(one_indices.begin(), one_indices.end(), indices.begin() + std::ptrdiff_t(q * want));
+                std::copy(one_distances.begin(), one_distances.end(),
+                          squared_distances.begin() + std::ptrdiff_t(q * want));
+            };
+            if (order[first].first == outside) {
+                for (std::uint32_t i = first; i < last; ++i) fall_back(order[i].second);
+                continue;
+            }
+            const Eigen::Vector3i c = (queries[order[first].second] * inverse_cell_).array().floor().cast<int>();
+            xs.clear(), ys.clear(), zs.clear(), ids.clear();
+            auto gather = [&](int y, int z, int x0, int x1) {
+                std::uint32_t begin = 0, end = 0;
+                if (!row_range(y, z, x0, x1, begin, end)) return;
+                for (std::uint32_t i = begin; i < end; ++i) {
+                    xs.push_back(ordered_points_[i].x());
+                    ys.push_back(ordered_points_[i].y());
+                    zs.push_back(ordered_points_[i].z());
+                    ids.push_back(ordered_indices_[i]);
+                }
+            };
+            // The block grows shell by shell for the queries it cannot yet answer (a sparse region
+            // needs a wider block than a dense one), up to a limit past which knn_search takes over.
+            pending.assign(order.begin() + first, order.begin() + last);
+            for (int ring = 0; !pending.empty(); ++ring) {
+                if (ring > max_batch_ring) {
+                    for (const auto& entry : pending) fall_back(entry.second);
+                    break;
+                }
+                for (int z = c.z() - ring; z <= c.z() + ring; ++z) {
+                    const bool z_face = std::abs(z - c.z()) == ring;
+                    for (int y = c.y() - ring; y <= c.y() + ring; ++y) {
+                        if (z_face || std::abs(y - c.y()) == ring) {
+                            gather(y, z, c.x() - ring, c.x() + ring);
+                        } else {
+                            gather(y, z, c.x() - ring, c.x() - ring);
+                            if (ring > 0) gather(y, z, c.x() + ring, c.x() + ring);
+                        }
+                    }
+                }
+                const std::size_t count = ids.size();
+                if (count < want) continue;
+                d2s.resize(count);
+                const Eigen::Vector3f block_lo = (c.array() - ring).cast<float>() * cell_size_;
+                const Eigen::Vector3f block_hi = (c.array() + ring + 1).cast<float>() * cell_size_;
+                next_pending.clear();
+                for (const auto& entry : pending) {
+                    const std::uint32_t q = entry.second;
+                    const Point& center = queries[q];
+                    const float cx = center.x(), cy = center.y(), cz = center.z();
+                    for (std::size_t j = 0; j < count; ++j) {
+                        const float dx = xs[j] - cx, dy = ys[j] - cy, dz = zs[j] - cz;
+                        d2s[j] = dx * dx + dy * dy + dz * dz;
+                    }
+                    best.clear();
+                    for (std::size_t j = 0; j < count; ++j) {
+                        const std::pair<float, std::uint32_t> candidate{d2s[j], ids[j]};
+                        if (best.size() == want) {
+                            if (!(candidate < best.back())) continue;
+                            best.pop_back();
+                        }
+                        best.insert(std::upper_bound(best.begin(), best.end(), candidate), candidate);
+                    }
+                    // knn_search's stopping rule.
+                    const float margin = std::min((center - block_lo).minCoeff(), (block_hi - center).minCoeff()) -
+                                         1e-5f * (center.cwiseAbs().maxCoeff() + cell_size_);
+                    if (!(margin > 0.0f && best.back().first < margin * margin)) {
+                        next_pending.push_back(entry);
+                        continue;
+                    }
+                    for (std::size_t j = 0; j < want; ++j) {
+                        indices[q * want + j] = best[j].second;
+                        squared_distances[q * want + j] = best[j].first;
+                    }
+                }
+                pending.swap(next_pending);
+            }
+        }
+    });
+}
+
+}  // namespace mfpc
+

@@ -1,0 +1,102 @@
+#include <algorithm>
+#include <random>
+#include <utility>
+#include <vector>
+
+#include <gtest/gtest.h>
+
+#include "mfpc/core/error.hpp"
+#include "mfpc/index/neighbor_grid.hpp"
+#include "random_clouds.hpp"
+
+namespace mfpc {
+namespace {
+
+float brute_distance(const Point& a, const Point& b)
+{
+    const float dx = a.x() - b.x(), dy = a.y() - b.y(), dz = a.z() - b.z();
+    return dx * dx + dy * dy + dz * dz;
+}
+
+TEST(NeighborGrid, RadiusSearchFindsExactlyThePointsWithinTheRadius)
+{
+    const auto points = test::random_points(20000, 7);
+    for (float cell : {0.03f, 0.1f, 0.4f}) {
+        const NeighborGrid grid(points, cell);
+        std::vector<std::uint32_t> indices;
+        std::vector<float> distances;
+        for (std::size_t q = 0; q < points.size(); q += 397) {
+            const float radius = 0.05f + 0.1f * float(q % 3);
+            grid.radius_search(points[q], radius, indices, distances);
+            std::vector<std::uint32_t> expected;
+            for (std::size_t i = 0; i < points.size(); ++i)
+                if (brute_distance(points[i], points[q]) <= radius * radius) expected.push_back(std::uint32_t(i));
+            ASSERT_EQ(indices.size(), distances.size());
+            for (std::size_t j = 0; j < indices.size(); ++j)
+                EXPECT_EQ(distances[j], brute_distance(points[indices[j]], points[q]));
+            std::sort(indices.begin(), indices.end());
+            EXPECT_EQ(indices, expected) << "cell " << cell << " query " << q;
+        }
+    }
+}
+
+TEST(NeighborGrid, KnnSearchMatchesBruteForceIncludingTies)
+{
+    // Lattice-snapped points make exact distance ties, which must go to the lower index.
+    const auto points = test::random_points(5000, 11);
+    std::mt19937 rng(3);
+    std::uniform_real_distribution<float> coordinate(-1.3f, 1.3f);
+    for (float cell : {0.02f, 0.1f, 0.5f}) {
+        const NeighborGrid grid(points, cell);
+        std::vector<std::uint32_t> indices;
+        std::vector<float> distances;
+        for (int q = 0; q < 60; ++q) {
+            const Point center = q % 2 ? points[std::size_t(q) * 61] : Point(coordinate(rng), coordinate(rng), coordinate(rng));
+            const int k = 1 + q % 17;
+            grid.knn_search(center, k, indices, distances);
+            std::vector<std::pair<float, std::uint32_t>> all;
+            for (std::size_t i = 0; i < points.size(); ++i) all.emplace_back(brute_distance(points[i], center), std::uint32_t(i));
+            std::partial_sort(all.begin(), all.begin() + k, all.end());
+            ASSERT_EQ(indices.size(), std::size_t(k));
+            for (int j = 0; j < k; ++j) {
+                EXPECT_EQ(indices[std::size_t(j)], all[std::size_t(j)].second) << "cell " << cell << " q " << q;
+                EXPECT_EQ(distances[std::size_t(j)], all[std::size_t(j)].first);
+            }
+        }
+    }
+}
+
+TEST(NeighborGrid, FewerPointsThanKAndFarQueries)
+{
+    const std::vector<Point> points = {Point(0, 0, 0), Point(1, 0, 0), Point(0, 2, 0)};
+    const NeighborGrid grid(points, 0.1f);
+    std::vector<std::uint32_t> indices;
+    std::vector<float> distances;
+    grid.knn_search(Point(0.1f, 0, 0), 10, indices, distances);
+    EXPECT_EQ(indices, (std::vector<std::uint32_t>{0, 1, 2}));
+    grid.knn_search(Point(500, 500, 500), 1, indices, distances);
+    EXPECT_EQ(indices, (std::vector<std::uint32_t>{2}));
+    grid.radius_search(Point(500, 500, 500), 1.0f, indices, distances);
+    EXPECT_TRUE(indices.empty());
+    grid.radius_search(Point(-1e30f, 0, 0), 1.0f, indices, distances);
+    EXPECT_TRUE(indices.empty());
+}
+
+TEST(NeighborGrid, EmptyCloudAndBadCellSize)
+{
+    const std::vector<Point> none;
+    const NeighborGrid grid(none, 0.1f);
+    std::vector<std::uint32_t> indices;
+    std::vector<float> distances;
+    grid.knn_search(Point::Zero(), 3, indices, distances);
+    EXPECT_TRUE(indices.empty());
+    grid.radius_search(Point::Zero(), 3, indices, distances);
+    EXPECT_TRUE(indices.empty());
+    EXPECT_THROW(NeighborGrid(none, 0.0f), Error);
+    EXPECT_THROW(NeighborGrid(none, -1.0f), Error);
+    const std::vector<Point> spread = {Point(0, 0, 0), Point(1e5f, 0, 0)};
+    EXPECT_THROW(NeighborGrid(spread, 0.001f), Error);
+}
+
+}  // namespace
+}  // namespace mfpc
