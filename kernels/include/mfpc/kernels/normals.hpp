@@ -1,0 +1,23 @@
+#pragma once
+
+#include <span>
+
+#include "mfpc/core/point_cloud.hpp"
+#include "mfpc/index/neighbor_grid.hpp"
+
+namespace mfpc {
+
+struct NormalParams {
+    int k = 10;                                  // k_n: neighbours of the PCA, the point itself included
+    Point viewpoint = Point::Zero();             // normals are flipped to face it (the sensor)
+};
+
+// Surface normal at each query point: the eigenvector of the smallest eigenvalue of the covariance
+// of its k nearest neighbours in `surface`, flipped so that (viewpoint - q) . n >= 0, as PCL's
+// NormalEstimation. A normal that cannot be defined (fewer than 3 neighbours, or a degenerate
+// neighbourhood: all at one spot or on one line, the middle eigenvalue below 1e-7 of the largest)
+// is NaN, and later stages skip it. normals.size() must equal queries.size().
+void estimate_normals(std::span<const Point> queries, const NeighborGrid& surface, const NormalParams& params,
+                      std::span<Point> normals);
+
+}  // namespace mfpc

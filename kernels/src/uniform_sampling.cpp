@@ -1,0 +1,144 @@
+#include "mfpc/kernels/uniform_sampling.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <string>
+#include <utility>
+
+#include <tbb/blocked_range.h>
+#include <tbb/parallel_for.h>
+#include <tbb/parallel_sort.h>
+
+#include "mfpc/core/error.hpp"
+
+namespace mfpc {
+namespace {
+
+constexpr int axis_bits = 21;
+
+void check_radius(float radius, const char* what)
+{
+    if (!(radius > 0.0f) || !std::isfinite(radius))
+        throw Error("uniform_sampling", std::string(what) + " must be a positive number, got " + std::to_string(radius));
+}
+
+// PCL 1.13 compares the squared distances of 4-vectors (x, y, z, 1) - (cx, cy, cz, 0), reduced by
+// Eigen's SSE code as (dx^2 + dz^2) + (dy^2 + 1). The +1 rounds away the low bits of the distance,
+// which decides near-ties; computing it the same way keeps the selected set identical to PCL's.
+inline float pcl_distance(const Point& p, const Eigen::Vector3f& center)
+{
+    const float dx = p.x() - center.x();
+    const float dy = p.y() - center.y();
+    const float dz = p.z() - center.z();
+    return (dx * dx + dz * dz) + (dy * dy + 1.0f);
+}
+
+// Samples points[members] (ascending indices) with one radius, appending the kept indices.
+void sample_group(std::span<const Point> points, std::span<const std::uint32_t> members, float radius,
+                  std::vector<std::uint32_t>& kept)
+{
+    if (members.empty()) return;
+    const float inverse = 1.0f / radius;
+    std::vector<Eigen::Vector3i> cells(members.size());
+    tbb::parallel_for(tbb::blocked_range<std::size_t>(0, members.size(), 4096), [&](const auto& range) {
+        for (std::size_t i = range.begin(); i < range.end(); ++i) {
+            const Point& p = points[members[i]];
+            cells[i] = Eigen::Vector3i(int(std::floor(p.x() * inverse)), int(std::floor(p.y() * inverse)),
+                                       int(std::floor(p.z() * inverse)));
+        }
+    });
+    Eigen::Vector3i lo = cells[0];
+    Eigen::Vector3i hi = cells[0];
+    for (const auto& c : cells) {
+        lo = lo.cwiseMin(c);
+        hi = hi.cwiseMax(c);
+    }
+    if ((hi - lo).maxCoeff() >= (1 << axis_bits))
+        throw Error("uniform_sampling", "the cloud spans more than 2^21 cubes of " + std::to_string(radius) +
+                                            " m on one axis; use a larger radius");
+    // (cube key, member position): sorted, each cube's points are together in ascending index
+    // order, the order PCL visits them in.
+    std::vector<std::pair<std::uint64_t, std::uint32_t>> order(members.size());
+    tbb::parallel_for(tbb::blocked_range<std::size_t>(0, members.size(), 4096), [&](const auto& range) {
+        for (std::size_t i = range.begin(); i < range.end(); ++i) {
+            const Eigen::Vector3i d = cells[i] - lo;
+            order[i] = {(std::uint64_t(d.z()) << (2 * axis_bits)) | (std::uint64_t(d.y()) << axis_bits) |
+                            std::uint64_t(d.x()),
+                        std::uint32_t(i)};
+        }
+    });
+    tbb::parallel_sort(order.begin(), order.end());
+    for (std::size_t begin = 0; begin < order.size();) {
+        const Eigen::Vector3i& cell = cells[order[begin].second];
+        // PCL: (ijk + 0.5) * radius in float.
+        const Eigen::Vector3f center = (cell.cast<float>().array() + 0.5f) * radius;
+        std::uint32_t best = members[order[begin].second];
+        float best_distance = pcl_distance(points[best], center);
+        std::size_t end = begin + 1;
+        for (; end < order.size() && order[end].first == order[begin].first; ++end) {
+            const std::uint32_t candidate = members[order[end].second];
+            const float distance = pcl_distance(points[candidate], center);
+            if (distance < best_distance) {
+                best = candidate;
+                best_distance = distance;
+            }
+        }
+        kept.push_back(best);
+        begin = end;
+    }
+}
+
+}  // namespace
+
+std::vector<std::uint32_t> uniform_sampling(std::span<const Point> points, float radius)
+{
+    check_radius(radius, "the radius");
+    std::vector<std::uint32_t> members(points.size());
+    for (std::size_t i = 0; i < members.size(); ++i) members[i] = std::uint32_t(i);
+    std::vector<std::uint32_t> kept;
+    sample_group(points, members, radius, kept);
+    std::sort(kept.begin(), kept.end());
+    return kept;
+}
+
+std::vector<std::uint32_t> uniform_sampling(std::span<const Point> points, std::span<const RegionLabel> labels,
+                                            std::span<const FoveatedStructure> structures, float unlabelled_radius)
+{
+    if (labels.size() != points.size())
+        throw Error("uniform_sampling", std::to_string(labels.size()) + " labels for " +
+                                            std::to_string(points.size()) + " points");
+    if (unlabelled_radius != 0.0f) check_radius(unlabelled_radius, "the radius outside the structures");
+    // Group points by region: group 0 holds the unlabelled points, group 1 + r region r.
+    int levels = structures.empty() ? 0 : structures.front().levels;
+    for (const auto& s : structures) levels = std::max(levels, s.levels);
+    const std::size_t groups = 1 + structures.size() * std::size_t(levels + 1);
+    std::vector<std::vector<std::uint32_t>> members(groups);
+    for (std::size_t i = 0; i < points.size(); ++i) {
+        const RegionLabel label = labels[i];
+        std::size_t group = 0;
+        if (label.structure >= 0) {
+            if (std::size_t(label.structure) >= structures.size() || label.level < 0 ||
+                label.level > structures[std::size_t(label.structure)].levels)
+                throw Error("uniform_sampling", "point " + std::to_string(i) + " is labelled with structure " +
+                                                    std::to_string(label.structure) + " level " +
+                                                    std::to_string(label.level) + ", which does not exist");
+            group = 1 + std::size_t(label.structure) * std::size_t(levels + 1) + std::size_t(label.level);
+        }
+        members[group].push_back(std::uint32_t(i));
+    }
+    std::vector<std::uint32_t> kept;
+    if (unlabelled_radius > 0.0f) sample_group(points, members[0], unlabelled_radius, kept);
+    for (std::size_t s = 0; s < structures.size(); ++s) {
+        for (int level = 0; level <= structures[s].levels; ++level) {
+            const float radius = structures[s].keypoint_radius(level);
+            const auto& group = members[1 + s * std::size_t(levels + 1) + std::size_t(level)];
+            if (group.empty()) continue;
+            check_radius(radius, "a keypoint radius");
+            sample_group(points, group, radius, kept);
+        }
+    }
+    std::sort(kept.begin(), kept.end());
+    return kept;
+}
+
+}  // namespace mfpc

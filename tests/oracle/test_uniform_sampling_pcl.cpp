@@ -1,0 +1,54 @@
+#include <algorithm>
+#include <iostream>
+#include <tuple>
+#include <vector>
+
+#include <gtest/gtest.h>
+#include <pcl/filters/uniform_sampling.h>
+
+#include "mfpc/kernels/uniform_sampling.hpp"
+#include "oracle_support.hpp"
+#include "test_support.hpp"
+
+namespace mfpc {
+namespace {
+
+using Triple = std::tuple<float, float, float>;
+
+// PCL's UniformSampling returns points, not indices: compare the selected coordinates as sets.
+void expect_same_selection(const std::filesystem::path& path, float radius)
+{
+    const auto oracle = test::load_oracle_cloud(path, 1000000);
+    const auto kept = uniform_sampling(oracle.cloud.points, radius);
+    std::vector<Triple> ours;
+    for (auto i : kept) ours.emplace_back(oracle.cloud.points[i].x(), oracle.cloud.points[i].y(), oracle.cloud.points[i].z());
+
+    pcl::UniformSampling<pcl::PointXYZ> sampling;
+    sampling.setInputCloud(oracle.pcl_cloud);
+    sampling.setRadiusSearch(radius);
+    pcl::PointCloud<pcl::PointXYZ> selected;
+    sampling.filter(selected);
+    std::vector<Triple> theirs;
+    for (const auto& p : selected) theirs.emplace_back(p.x, p.y, p.z);
+
+    std::sort(ours.begin(), ours.end());
+    std::sort(theirs.begin(), theirs.end());
+    std::cout << path.filename().string() << " radius " << radius << ": " << ours.size() << " keypoints (PCL "
+              << theirs.size() << ")\n";
+    EXPECT_EQ(ours, theirs);
+}
+
+TEST(UniformSamplingOracle, SceneSelectionIsPcls)
+{
+    MFPC_SHARED_FILE_OR_SKIP(path, "milk_cartoon_all_small_clorox.pcd");
+    for (float radius : {0.03f, 0.01f, 0.0037f}) expect_same_selection(path, radius);
+}
+
+TEST(UniformSamplingOracle, ModelSelectionIsPcls)
+{
+    MFPC_SHARED_FILE_OR_SKIP(path, "milk.pcd");
+    for (float radius : {0.01f, 0.005f, 0.0021f}) expect_same_selection(path, radius);
+}
+
+}  // namespace
+}  // namespace mfpc
