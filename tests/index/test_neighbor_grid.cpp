@@ -30,7 +30,7 @@ TEST(NeighborGrid, RadiusSearchFindsExactlyThePointsWithinTheRadius)
             grid.radius_search(points[q], radius, indices, distances);
             std::vector<std::uint32_t> expected;
             for (std::size_t i = 0; i < points.size(); ++i)
-                if (brute_distance(points[i], points[q]) <= radius * radius) expected.push_back(std::uint32_t(i));
+                if (brute_distance(points[i], points[q]) < radius * radius) expected.push_back(std::uint32_t(i));
             ASSERT_EQ(indices.size(), distances.size());
             for (std::size_t j = 0; j < indices.size(); ++j)
                 EXPECT_EQ(distances[j], brute_distance(points[indices[j]], points[q]));
