@@ -1,0 +1,41 @@
+#pragma once
+
+#include <cstddef>
+#include <cstdint>
+#include <span>
+#include <vector>
+
+#include "mfpc/core/point_cloud.hpp"
+#include "mfpc/kernels/local_reference_frame.hpp"
+#include "mfpc/recognition/params.hpp"
+
+namespace mfpc {
+
+// The keypoints of a cloud with what matching and grouping need. Only keypoints whose BOARD frame
+// and SHOT descriptor are both defined are kept; `invalid` counts the others.
+struct Features {
+    std::vector<Point> keypoints;
+    std::vector<LocalReferenceFrame> frames;  // BOARD, r_l (Hough voting)
+    std::vector<float> descriptors;           // shot_size per keypoint, SHOT352, r_s
+    std::size_t candidates = 0;               // keypoints before dropping invalid ones
+    std::size_t invalid = 0;
+    std::size_t size() const { return keypoints.size(); }
+    std::span<const float> descriptor(std::size_t i) const;
+};
+
+struct FeatureTimings {
+    double normals_ms = 0;
+    double keypoints_ms = 0;
+    double lrf_ms = 0;
+    double descriptors_ms = 0;
+};
+
+// Normals, BOARD frames and SHOT descriptors at `keypoints` (indices into surface.points) over
+// the search surface `surface`. Normals are estimated only for the surface points inside some
+// keypoint's support, from their `normal_k` nearest neighbours in `normal_source` (the surface
+// itself, or a denser cloud that contains the same geometry).
+Features describe_keypoints(std::span<const Point> surface, std::span<const std::uint32_t> keypoints,
+                            std::span<const Point> normal_source, const FeatureParams& params,
+                            FeatureTimings* timings = nullptr);
+
+}  // namespace mfpc

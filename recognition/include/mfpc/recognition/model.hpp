@@ -1,0 +1,33 @@
+#pragma once
+
+#include <filesystem>
+#include <string>
+#include <vector>
+
+#include "mfpc/core/point_cloud.hpp"
+#include "mfpc/recognition/features.hpp"
+#include "mfpc/recognition/params.hpp"
+
+namespace mfpc {
+
+// A model ready for recognition: its cloud with normals (for refinement and verification) and its
+// described keypoints, with the parameters they were computed with.
+struct Model {
+    std::vector<Point> points;
+    std::vector<Point> normals;  // one per point, NaN where undefined
+    Features features;
+    FeatureParams params;
+    std::string source;          // the file the model came from
+};
+
+Model prepare_model(const PointCloud& cloud, const FeatureParams& params, const std::string& source,
+                    FeatureTimings* timings = nullptr);
+
+// The model cache (.mfpcm): a versioned binary file holding all of Model, so batch runs do not
+// describe the model again. read_model_cache throws mfpc::Error for a file that is not a cache, a
+// cache of another format version, or a truncated or corrupt one (checked by size and checksum).
+void write_model_cache(const std::filesystem::path& path, const Model& model);
+Model read_model_cache(const std::filesystem::path& path);
+inline constexpr std::uint32_t model_cache_version = 1;
+
+}  // namespace mfpc

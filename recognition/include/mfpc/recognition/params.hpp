@@ -1,0 +1,93 @@
+#pragma once
+
+#include <filesystem>
+#include <string>
+#include <string_view>
+
+namespace mfpc {
+
+// Per-cloud feature parameters (paper Table 3; the model and the scene each have a set).
+struct FeatureParams {
+    int normal_k = 10;             // k_n: neighbours of the normal PCA
+    float keypoint_radius = 0.03f;  // uniform sampling radius (plain clouds; foveated ones use r_k)
+    float lrf_radius = 0.015f;     // r_l: BOARD support (the frames Hough voting uses)
+    float shot_radius = 0.02f;     // r_s: SHOT support
+};
+
+enum class NormalsFrom {
+    full,      // normals of the kept points from their neighbours in the full scene
+    foveated,  // from their neighbours in the foveated cloud itself (paper Section 5.4)
+};
+
+enum class MatchDirection {
+    scene_to_model,  // each scene descriptor to its nearest model descriptor (the PCL tutorial)
+    model_to_scene,  // each model descriptor to its k nearest scene descriptors (paper Algorithm 4):
+                     // lets one model keypoint match several instances
+};
+
+enum class Grouping { hough, gc };
+
+struct MatchParams {
+    MatchDirection direction = MatchDirection::model_to_scene;
+    int k = 10;                     // neighbours per query in model_to_scene
+    float threshold = 0.25f;        // d_max^2: squared descriptor distance accepted
+    bool exact = true;              // exact kd-tree; false: randomized kd-trees
+    int trees = 4;                  // randomized kd-trees (approximate)
+    int checks = 256;               // leaves visited per query (approximate)
+};
+
+struct GroupingParams {
+    Grouping method = Grouping::hough;
+    float hough_bin = 0.01f;        // L_h: Hough bin size (metres)
+    float hough_threshold = 3.0f;   // V_h: minimum interpolated votes of a maximum
+    float gc_size = 0.01f;          // GC: consensus distance (metres)
+    int gc_threshold = 5;           // GC: minimum cluster size
+    float ransac_distance = 0.01f;  // inlier distance of the per-instance pose fit (metres)
+    int ransac_iterations = 500;
+};
+
+struct RefineParams {
+    bool enabled = true;            // ICP of each instance onto the scene
+    int iterations = 30;
+    float max_distance = 0.01f;     // pairs farther than this are ignored (metres)
+    float model_voxel = 0.004f;     // the model is thinned to one point per voxel first (0: not)
+};
+
+struct VerifyParams {
+    bool enabled = true;
+    float inlier_distance = 0.005f;      // a model point fits when a scene point is this close
+    float min_inlier_fraction = 0.4f;    // of the model points that face the camera
+    float min_coverage = 0.6f;           // inliers / all model points: how much of the model the scene explains
+    float free_space_margin = 0.01f;     // a model point this far in front of the observed surface
+    float max_free_space_fraction = 0.1f;  // ... on this fraction of points rejects the instance
+    bool merge = true;                   // merge instances whose placed models overlap:
+    float merge_distance = 0.01f;        // ... points closer than this (metres) overlap,
+    float merge_overlap = 0.2f;          // ... and this fraction of overlapping points merges
+};
+
+struct RecognitionParams {
+    // The built-in defaults: the one set that finds both cartons of milk_pair.pcd and nothing else
+    // (README, "Recognition parameters"). Larger supports than the PCL tutorial's (0.015 / 0.02)
+    // make frames and descriptors survive the second carton's sensor noise.
+    FeatureParams scene{10, 0.03f, 0.04f, 0.04f};
+    FeatureParams model{10, 0.01f, 0.04f, 0.04f};
+    NormalsFrom normals_from = NormalsFrom::full;
+    MatchParams match;
+    GroupingParams grouping;
+    RefineParams refine;
+    VerifyParams verify;
+};
+
+// Parses parameters JSON (every key optional, defaults above; unknown keys and wrong types are
+// errors naming "source: key"). Layout and key names: README, "Recognition parameters".
+RecognitionParams parse_recognition_params(std::string_view json_text, const std::string& source);
+RecognitionParams read_recognition_params(const std::filesystem::path& path);
+std::string to_json(const RecognitionParams& params);
+// Throws mfpc::Error naming the field of any value out of range.
+void check_recognition_params(const RecognitionParams& params, const std::string& source = "params");
+
+const char* to_string(NormalsFrom value);
+const char* to_string(MatchDirection value);
+const char* to_string(Grouping value);
+
+}  // namespace mfpc

@@ -1,0 +1,51 @@
+#pragma once
+
+#include <optional>
+#include <span>
+#include <vector>
+
+#include "mfpc/core/point_cloud.hpp"
+#include "mfpc/index/neighbor_grid.hpp"
+#include "mfpc/recognition/grouping.hpp"
+#include "mfpc/recognition/params.hpp"
+
+namespace mfpc {
+
+// A pinhole camera at the origin looking down +z: pixel (u, v) = (fx x / z + cx, fy y / z + cy).
+struct Camera {
+    float fx = 525.0f;
+    float fy = 525.0f;
+    float cx = 319.5f;
+    float cy = 239.5f;
+    std::uint32_t width = 640;
+    std::uint32_t height = 480;
+};
+
+// The camera of an organized cloud, fitted by least squares from its points and their pixels;
+// nothing for an unorganized cloud or one whose points do not fit a pinhole (rms > 1 pixel).
+std::optional<Camera> fit_camera(const PointCloud& organized);
+
+// What verification compares instances with: the scene's points (and a grid over them) and, for
+// organized scenes, its depth image and camera for the free-space test.
+struct SceneEvidence {
+    std::span<const Point> points;
+    const NeighborGrid* grid = nullptr;   // over points, any cell size near the inlier distance
+    std::optional<Camera> camera;
+    std::vector<float> depth;             // camera->width * height, NaN where no return
+};
+SceneEvidence make_scene_evidence(const PointCloud& scene, const NeighborGrid& grid);
+
+// ICP (point to point, Umeyama per iteration) of each instance's model onto the scene, starting
+// from its pose; then fitness: the fraction of the model points the sensor could have seen (normal
+// towards the origin, not hidden behind a nearer observed surface) that have a scene point within
+// inlier_distance; and the free-space violation: the fraction of all model points projecting onto
+// an observed pixel whose surface lies more than free_space_margin behind them (a solid object there
+// would have stopped the ray, so it cannot be there). Instances failing the limits are dropped; duplicates
+// (placed models overlapping: merge_overlap of one's points within merge_distance of the other's)
+// keep the one with the better fitness.
+// `model_points`/`model_normals` are the model cloud; instances keep their order otherwise.
+std::vector<Instance> refine_and_verify(std::vector<Instance> instances, std::span<const Point> model_points,
+                                        std::span<const Point> model_normals, const SceneEvidence& scene,
+                                        const RefineParams& refine, const VerifyParams& verify);
+
+}  // namespace mfpc

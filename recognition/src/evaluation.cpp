@@ -1,0 +1,87 @@
+#include "mfpc/recognition/evaluation.hpp"
+
+#include <limits>
+#include <set>
+#include <utility>
+
+#include "mfpc/index/neighbor_grid.hpp"
+
+namespace mfpc {
+
+Evaluation evaluate(const RecognitionResult& result, const Model& model, const GroundTruth& truth,
+                    const EvaluationParams& params)
+{
+    Evaluation out;
+    const auto& scene = result.scene_features;
+    const float tolerance2 = params.correspondence_tolerance * params.correspondence_tolerance;
+
+    // Correct correspondences, and the distinct (model keypoint, true instance) pairs they hit.
+    std::set<std::pair<std::uint32_t, std::size_t>> hit;
+    for (const auto& c : result.correspondences) {
+        bool correct = false;
+        for (std::size_t t = 0; t < truth.instances.size(); ++t) {
+            const Point expected = truth.instances[t].transform * model.features.keypoints[c.model];
+            if ((expected - scene.keypoints[c.scene]).squaredNorm() <= tolerance2) {
+                correct = true;
+                hit.emplace(c.model, t);
+            }
+        }
+        if (correct) ++out.correct_correspondences;
+    }
+    // Possible: a true instance's model keypoint has a scene keypoint within tolerance.
+    if (scene.size() > 0) {
+        const NeighborGrid grid(scene.keypoints, std::max(params.correspondence_tolerance, 1e-3f));
+        std::vector<std::uint32_t> indices;
+        std::vector<float> distances;
+        for (std::size_t t = 0; t < truth.instances.size(); ++t)
+            for (const Point& k : model.features.keypoints) {
+                grid.radius_search(truth.instances[t].transform * k, params.correspondence_tolerance, indices, distances);
+                if (!indices.empty()) ++out.possible_correspondences;
+            }
+    }
+    out.correspondence_precision =
+        result.correspondences.empty() ? 0.0 : double(out.correct_correspondences) / double(result.correspondences.size());
+    out.correspondence_sensitivity =
+        out.possible_correspondences == 0 ? 0.0 : double(hit.size()) / double(out.possible_correspondences);
+
+    // Instances: the object's position is the model centroid carried by the transform.
+    Eigen::Vector3d sum = Eigen::Vector3d::Zero();
+    for (const Point& p : model.points) sum += p.cast<double>();
+    const Point centroid = model.points.empty() ? Point::Zero() : Point((sum / double(model.points.size())).cast<float>());
+    std::vector<std::uint8_t> claimed(truth.instances.size(), 0);
+    for (const auto& instance : result.instances) {
+        int match = -1;
+        float best = params.instance_translation;
+        float nearest = std::numeric_limits<float>::infinity();
+        float nearest_angle = std::numeric_limits<float>::quiet_NaN();
+        for (const auto& t : truth.instances) {
+            const float distance = (instance.transform * centroid - t.transform * centroid).norm();
+            if (distance < nearest) {
+                nearest = distance;
+                nearest_angle = rotation_error_deg(instance.transform, t.transform);
+            }
+        }
+        out.position_error.push_back(nearest);
+        out.rotation_error_deg.push_back(nearest_angle);
+        for (std::size_t t = 0; t < truth.instances.size(); ++t) {
+            if (claimed[t]) continue;
+            const float distance = (instance.transform * centroid - truth.instances[t].transform * centroid).norm();
+            if (distance <= best &&
+                rotation_error_deg(instance.transform, truth.instances[t].transform) <= params.instance_angle_deg) {
+                best = distance;
+                match = int(t);
+            }
+        }
+        out.instance_match.push_back(match);
+        if (match >= 0) {
+            claimed[std::size_t(match)] = 1;
+            ++out.instances_true;
+        } else {
+            ++out.instances_false;
+        }
+    }
+    out.instances_missed = truth.instances.size() - out.instances_true;
+    return out;
+}
+
+}  // namespace mfpc

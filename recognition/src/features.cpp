@@ -1,0 +1,110 @@
+#include "mfpc/recognition/features.hpp"
+
+#include <algorithm>
+#include <atomic>
+#include <chrono>
+#include <limits>
+#include <string>
+
+#include <tbb/blocked_range.h>
+#include <tbb/parallel_for.h>
+
+#include "mfpc/core/error.hpp"
+#include "mfpc/index/neighbor_grid.hpp"
+#include "mfpc/kernels/normals.hpp"
+#include "mfpc/kernels/shot.hpp"
+
+namespace mfpc {
+namespace {
+
+double elapsed_ms(std::chrono::steady_clock::time_point since)
+{
+    return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - since).count();
+}
+
+// Grid cell for k-nearest queries: a few point spacings, so that the first ring of cells holds the
+// k neighbours on a surface sampled like a Kinect view at 1-2 m (about 2 mm spacing).
+constexpr float knn_cell = 0.005f;
+
+}  // namespace
+
+std::span<const float> Features::descriptor(std::size_t i) const
+{
+    return std::span<const float>(descriptors).subspan(i * shot_size, shot_size);
+}
+
+Features describe_keypoints(std::span<const Point> surface, std::span<const std::uint32_t> keypoints,
+                            std::span<const Point> normal_source, const FeatureParams& params, FeatureTimings* timings)
+{
+    if (!(params.lrf_radius > 0.0f) || !(params.shot_radius > 0.0f))
+        throw Error("describe_keypoints", "the LRF and SHOT radii must be positive");
+    for (std::uint32_t k : keypoints)
+        if (k >= surface.size())
+            throw Error("describe_keypoints", "keypoint index " + std::to_string(k) + " is outside the surface of " +
+                                                  std::to_string(surface.size()) + " points");
+    FeatureTimings local;
+    FeatureTimings& time = timings ? *timings : local;
+
+    auto start = std::chrono::steady_clock::now();
+    const float support = std::max(params.lrf_radius, params.shot_radius);
+    const NeighborGrid surface_grid(surface, support);
+    std::vector<Point> keypoint_points(keypoints.size());
+    for (std::size_t i = 0; i < keypoints.size(); ++i) keypoint_points[i] = surface[keypoints[i]];
+
+    // Normals only where a descriptor or frame reads them: the surface points within the support
+    // of some keypoint. The same value is stored by every writer, so the mark is race-free in
+    // effect; atomic_ref makes it so in law.
+    std::vector<std::uint8_t> needed(surface.size(), 0);
+    tbb::parallel_for(tbb::blocked_range<std::size_t>(0, keypoints.size(), 64), [&](const auto& range) {
+        std::vector<std::uint32_t> neighbours;
+        std::vector<float> distances;
+        for (std::size_t i = range.begin(); i < range.end(); ++i) {
+            surface_grid.radius_search(keypoint_points[i], support, neighbours, distances);
+            for (std::uint32_t n : neighbours) std::atomic_ref<std::uint8_t>(needed[n]).store(1, std::memory_order_relaxed);
+        }
+    });
+    std::vector<std::uint32_t> queries;
+    for (std::size_t i = 0; i < surface.size(); ++i)
+        if (needed[i]) queries.push_back(std::uint32_t(i));
+    std::vector<Point> query_points(queries.size());
+    for (std::size_t i = 0; i < queries.size(); ++i) query_points[i] = surface[queries[i]];
+    std::vector<Point> query_normals(queries.size());
+    {
+        const NeighborGrid normal_grid(normal_source, knn_cell);
+        estimate_normals(query_points, normal_grid, NormalParams{params.normal_k, Point::Zero()}, query_normals);
+    }
+    std::vector<Point> normals(surface.size(), Point::Constant(std::numeric_limits<float>::quiet_NaN()));
+    for (std::size_t i = 0; i < queries.size(); ++i) normals[queries[i]] = query_normals[i];
+    time.normals_ms += elapsed_ms(start);
+
+    start = std::chrono::steady_clock::now();
+    std::vector<LocalReferenceFrame> board(keypoints.size());
+    BoardParams board_params;
+    board_params.radius = params.lrf_radius;
+    board_frames(keypoint_points, surface_grid, normals, board_params, board);
+    time.lrf_ms += elapsed_ms(start);
+
+    start = std::chrono::steady_clock::now();
+    std::vector<LocalReferenceFrame> shot_frames(keypoints.size());
+    std::vector<float> descriptors(keypoints.size() * shot_size);
+    shot_descriptors(keypoint_points, surface_grid, normals, ShotParams{params.shot_radius}, shot_frames, descriptors);
+    time.descriptors_ms += elapsed_ms(start);
+
+    Features features;
+    features.candidates = keypoints.size();
+    for (std::size_t i = 0; i < keypoints.size(); ++i) {
+        const auto descriptor = std::span<const float>(descriptors).subspan(i * shot_size, shot_size);
+        const bool valid = is_valid(board[i]) &&
+                           std::all_of(descriptor.begin(), descriptor.end(), [](float v) { return std::isfinite(v); });
+        if (!valid) {
+            ++features.invalid;
+            continue;
+        }
+        features.keypoints.push_back(keypoint_points[i]);
+        features.frames.push_back(board[i]);
+        features.descriptors.insert(features.descriptors.end(), descriptor.begin(), descriptor.end());
+    }
+    return features;
+}
+
+}  // namespace mfpc

@@ -1,0 +1,235 @@
+#include "mfpc/recognition/grouping.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <random>
+#include <string>
+#include <unordered_map>
+
+#include <Eigen/Geometry>
+
+#include "mfpc/core/error.hpp"
+
+namespace mfpc {
+namespace {
+
+void check_inputs(const Features& model, const Features& scene, const std::vector<Correspondence>& correspondences)
+{
+    for (const auto& c : correspondences)
+        if (c.model >= model.size() || c.scene >= scene.size())
+            throw Error("grouping", "a correspondence refers to keypoint " + std::to_string(c.model) + " / " +
+                                        std::to_string(c.scene) + " beyond the model's " +
+                                        std::to_string(model.size()) + " / scene's " + std::to_string(scene.size()));
+}
+
+// RANSAC over a cluster's correspondences (three at a time, a generator seeded by the cluster's
+// rank, so the result does not depend on threads or runs), then a least-squares fit on the largest
+// inlier set. Returns false when fewer than three correspondences agree.
+bool fit_instance(const Features& model, const Features& scene, std::vector<Correspondence> cluster,
+                  const GroupingParams& params, std::uint32_t seed, Instance& out)
+{
+    if (cluster.size() < 3) return false;
+    const float inlier2 = params.ransac_distance * params.ransac_distance;
+    auto inliers_of = [&](const Pose& pose, std::vector<std::uint32_t>& inliers) {
+        inliers.clear();
+        for (std::uint32_t i = 0; i < cluster.size(); ++i) {
+            const Point moved = pose * model.keypoints[cluster[i].model];
+            if ((moved - scene.keypoints[cluster[i].scene]).squaredNorm() <= inlier2) inliers.push_back(i);
+        }
+    };
+    std::mt19937 rng(seed);
+    std::uniform_int_distribution<std::uint32_t> pick(0, std::uint32_t(cluster.size() - 1));
+    std::vector<std::uint32_t> best, current;
+    std::vector<Point> from(3), to(3);
+    const int iterations = cluster.size() == 3 ? 1 : params.ransac_iterations;
+    for (int it = 0; it < iterations; ++it) {
+        std::uint32_t a = 0, b = 1, c = 2;
+        if (cluster.size() > 3) {
+            a = pick(rng);
+            do b = pick(rng); while (b == a);
+            do c = pick(rng); while (c == a || c == b);
+        }
+        const std::uint32_t sample[3] = {a, b, c};
+        for (int j = 0; j < 3; ++j) {
+            from[std::size_t(j)] = model.keypoints[cluster[sample[j]].model];
+            to[std::size_t(j)] = scene.keypoints[cluster[sample[j]].scene];
+        }
+        // A degenerate (nearly collinear) sample fixes no rotation.
+        if ((from[1] - from[0]).cross(from[2] - from[0]).norm() < 1e-6f) continue;
+        inliers_of(fit_rigid(from, to), current);
+        if (current.size() > best.size()) best = current;
+        if (best.size() == cluster.size()) break;
+    }
+    if (best.size() < 3) return false;
+    // Least squares on the inliers, then once more on the inliers of that pose.
+    for (int round = 0; round < 2; ++round) {
+        from.clear();
+        to.clear();
+        for (std::uint32_t i : best) {
+            from.push_back(model.keypoints[cluster[i].model]);
+            to.push_back(scene.keypoints[cluster[i].scene]);
+        }
+        out.transform = fit_rigid(from, to);
+        inliers_of(out.transform, current);
+        if (current.size() < 3) return false;
+        best = current;
+    }
+    out.correspondences.clear();
+    for (std::uint32_t i : best) out.correspondences.push_back(cluster[i]);
+    return true;
+}
+
+}  // namespace
+
+Pose fit_rigid(std::span<const Point> from, std::span<const Point> to)
+{
+    if (from.size() != to.size() || from.size() < 3) throw Error("fit_rigid", "needs at least three point pairs");
+    Eigen::Matrix3Xd a(3, from.size()), b(3, to.size());
+    for (std::size_t i = 0; i < from.size(); ++i) {
+        a.col(Eigen::Index(i)) = from[i].cast<double>();
+        b.col(Eigen::Index(i)) = to[i].cast<double>();
+    }
+    const Eigen::Matrix4d m = Eigen::umeyama(a, b, false);
+    Pose pose = Pose::Identity();
+    pose.linear() = m.topLeftCorner<3, 3>().cast<float>();
+    pose.translation() = m.topRightCorner<3, 1>().cast<float>();
+    return pose;
+}
+
+std::vector<Instance> hough_grouping(const Features& model, const Features& scene,
+                                     const std::vector<Correspondence>& correspondences, const GroupingParams& params)
+{
+    check_inputs(model, scene, correspondences);
+    if (!(params.hough_bin > 0.0f)) throw Error("hough_grouping", "hough_bin must be positive");
+    if (correspondences.empty() || model.size() == 0) return {};
+
+    // The model's reference point, and each model keypoint's vote for it in its own frame.
+    Eigen::Vector3d centroid = Eigen::Vector3d::Zero();
+    for (const auto& p : model.keypoints) centroid += p.cast<double>();
+    const Point reference = (centroid / double(model.size())).cast<float>();
+
+    // Scene votes: the model vote carried through the scene keypoint's frame.
+    std::vector<Point> votes(correspondences.size());
+    for (std::size_t i = 0; i < correspondences.size(); ++i) {
+        const auto& c = correspondences[i];
+        const Point local = model.frames[c.model] * (reference - model.keypoints[c.model]);
+        votes[i] = scene.frames[c.scene].transpose() * local + scene.keypoints[c.scene];
+    }
+
+    // Interpolated voting into a sparse 3D histogram: bin centres at (i + 0.5) * bin; each vote
+    // spreads over the 8 nearest centres with trilinear weights and is a voter of each.
+    struct Bin {
+        float value = 0.0f;
+        std::vector<std::uint32_t> voters;
+    };
+    auto key_of = [](const Eigen::Vector3i& b) {
+        return (std::uint64_t(std::uint32_t(b.x()) & 0x1FFFFF) << 42) | (std::uint64_t(std::uint32_t(b.y()) & 0x1FFFFF) << 21) |
+               std::uint64_t(std::uint32_t(b.z()) & 0x1FFFFF);
+    };
+    std::unordered_map<std::uint64_t, Bin> bins;
+    std::vector<std::pair<std::uint64_t, Eigen::Vector3i>> keys;  // first-touch order, for a fixed scan
+    const float inverse = 1.0f / params.hough_bin;
+    for (std::uint32_t i = 0; i < votes.size(); ++i) {
+        if (!votes[i].allFinite()) continue;
+        const Eigen::Vector3f u = votes[i] * inverse - Eigen::Vector3f::Constant(0.5f);
+        const Eigen::Vector3f base = u.array().floor();
+        const Eigen::Vector3f frac = u - base;
+        for (int corner = 0; corner < 8; ++corner) {
+            const Eigen::Vector3i offset((corner >> 0) & 1, (corner >> 1) & 1, (corner >> 2) & 1);
+            float weight = 1.0f;
+            for (int axis = 0; axis < 3; ++axis) weight *= offset[axis] ? frac[axis] : 1.0f - frac[axis];
+            if (weight <= 0.0f) continue;
+            const Eigen::Vector3i b = base.cast<int>() + offset;
+            const std::uint64_t key = key_of(b);
+            auto [it, inserted] = bins.try_emplace(key);
+            if (inserted) keys.emplace_back(key, b);
+            it->second.value += weight;
+            it->second.voters.push_back(i);
+        }
+    }
+
+    // Local maxima (>= every neighbour, and > the neighbours scanned before, so a plateau yields
+    // one maximum) with at least hough_threshold votes.
+    struct Peak {
+        float value;
+        std::size_t order;
+    };
+    std::vector<Peak> peaks;
+    for (std::size_t k = 0; k < keys.size(); ++k) {
+        const Bin& bin = bins.at(keys[k].first);
+        if (bin.value < params.hough_threshold) continue;
+        bool is_max = true;
+        for (int dz = -1; dz <= 1 && is_max; ++dz)
+            for (int dy = -1; dy <= 1 && is_max; ++dy)
+                for (int dx = -1; dx <= 1 && is_max; ++dx) {
+                    if (!dx && !dy && !dz) continue;
+                    const auto it = bins.find(key_of(keys[k].second + Eigen::Vector3i(dx, dy, dz)));
+                    if (it == bins.end()) continue;
+                    if (it->second.value > bin.value) is_max = false;
+                    else if (it->second.value == bin.value && std::make_tuple(dz, dy, dx) < std::make_tuple(0, 0, 0))
+                        is_max = false;
+                }
+        if (is_max) peaks.push_back({bin.value, k});
+    }
+    std::sort(peaks.begin(), peaks.end(), [](const Peak& a, const Peak& b) {
+        return a.value != b.value ? a.value > b.value : a.order < b.order;
+    });
+
+    std::vector<Instance> instances;
+    for (std::size_t rank = 0; rank < peaks.size(); ++rank) {
+        std::vector<Correspondence> cluster;
+        for (std::uint32_t v : bins.at(keys[peaks[rank].order].first).voters) cluster.push_back(correspondences[v]);
+        Instance instance;
+        if (!fit_instance(model, scene, std::move(cluster), params, std::uint32_t(rank + 1), instance)) continue;
+        instance.votes = peaks[rank].value;
+        instances.push_back(std::move(instance));
+    }
+    return instances;
+}
+
+std::vector<Instance> gc_grouping(const Features& model, const Features& scene,
+                                  const std::vector<Correspondence>& correspondences, const GroupingParams& params)
+{
+    check_inputs(model, scene, correspondences);
+    if (!(params.gc_size > 0.0f)) throw Error("gc_grouping", "gc_size must be positive");
+    // Seeds in order of descriptor distance (best first), as PCL's GeometricConsistencyGrouping.
+    std::vector<std::uint32_t> order(correspondences.size());
+    for (std::uint32_t i = 0; i < order.size(); ++i) order[i] = i;
+    std::stable_sort(order.begin(), order.end(), [&](std::uint32_t a, std::uint32_t b) {
+        return correspondences[a].distance < correspondences[b].distance;
+    });
+    std::vector<std::uint8_t> taken(correspondences.size(), 0);
+    std::vector<Instance> instances;
+    std::uint32_t rank = 0;
+    for (std::uint32_t seed : order) {
+        if (taken[seed]) continue;
+        std::vector<std::uint32_t> members{seed};
+        for (std::uint32_t j : order) {
+            if (j == seed || taken[j]) continue;
+            const auto& cj = correspondences[j];
+            bool consistent = true;
+            for (std::uint32_t m : members) {
+                const auto& cm = correspondences[m];
+                const float model_distance = (model.keypoints[cm.model] - model.keypoints[cj.model]).norm();
+                const float scene_distance = (scene.keypoints[cm.scene] - scene.keypoints[cj.scene]).norm();
+                if (std::abs(model_distance - scene_distance) > params.gc_size) {
+                    consistent = false;
+                    break;
+                }
+            }
+            if (consistent) members.push_back(j);
+        }
+        if (int(members.size()) < params.gc_threshold) continue;
+        for (std::uint32_t m : members) taken[m] = 1;
+        std::vector<Correspondence> cluster;
+        for (std::uint32_t m : members) cluster.push_back(correspondences[m]);
+        Instance instance;
+        instance.votes = float(members.size());
+        if (fit_instance(model, scene, std::move(cluster), params, ++rank, instance)) instances.push_back(std::move(instance));
+    }
+    std::stable_sort(instances.begin(), instances.end(),
+                     [](const Instance& a, const Instance& b) { return a.votes > b.votes; });
+    return instances;
+}
+
+}  // namespace mfpc

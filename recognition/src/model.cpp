@@ -1,0 +1,179 @@
+#include "mfpc/recognition/model.hpp"
+
+#include <array>
+#include <cmath>
+#include <cstring>
+#include <fstream>
+#include <string>
+
+#include "mfpc/core/atomic_file.hpp"
+#include "mfpc/core/error.hpp"
+#include "mfpc/core/text_file.hpp"
+#include "mfpc/index/neighbor_grid.hpp"
+#include "mfpc/kernels/normals.hpp"
+#include "mfpc/kernels/shot.hpp"
+#include "mfpc/kernels/uniform_sampling.hpp"
+
+namespace mfpc {
+namespace {
+
+constexpr char magic[8] = {'M', 'F', 'P', 'C', 'M', 'O', 'D', 'L'};
+
+std::uint64_t fnv1a(const char* data, std::size_t size)
+{
+    std::uint64_t hash = 0xcbf29ce484222325ull;
+    for (std::size_t i = 0; i < size; ++i) {
+        hash ^= std::uint8_t(data[i]);
+        hash *= 0x100000001b3ull;
+    }
+    return hash;
+}
+
+class Writer {
+public:
+    template <class T> void value(const T& v) { bytes_.append(reinterpret_cast<const char*>(&v), sizeof(T)); }
+    template <class T> void array(const std::vector<T>& v)
+    {
+        value(std::uint64_t(v.size()));
+        bytes_.append(reinterpret_cast<const char*>(v.data()), v.size() * sizeof(T));
+    }
+    std::string& bytes() { return bytes_; }
+
+private:
+    std::string bytes_;
+};
+
+class Reader {
+public:
+    Reader(const std::string& bytes, std::size_t end, std::string where)
+        : bytes_(bytes), end_(end), where_(std::move(where))
+    {
+    }
+    template <class T> T value()
+    {
+        need(sizeof(T));
+        T v;
+        std::memcpy(&v, bytes_.data() + at_, sizeof(T));
+        at_ += sizeof(T);
+        return v;
+    }
+    template <class T> std::vector<T> array(std::uint64_t expected_count = ~0ull)
+    {
+        const auto count = value<std::uint64_t>();
+        if (expected_count != ~0ull && count != expected_count)
+            throw Error(where_, "corrupt model cache: an array holds " + std::to_string(count) + " entries, expected " +
+                                    std::to_string(expected_count));
+        if (count > (end_ - at_) / sizeof(T)) throw Error(where_, "truncated or corrupt model cache");
+        std::vector<T> v(count);
+        std::memcpy(static_cast<void*>(v.data()), bytes_.data() + at_, count * sizeof(T));
+        at_ += count * sizeof(T);
+        return v;
+    }
+    std::size_t position() const { return at_; }
+
+private:
+    void need(std::size_t n) const
+    {
+        if (end_ - at_ < n) throw Error(where_, "truncated or corrupt model cache");
+    }
+    const std::string& bytes_;
+    std::size_t end_;
+    std::size_t at_ = 0;
+    std::string where_;
+};
+
+template <class T> bool all_finite(const std::vector<T>& v)
+{
+    for (const auto& x : v)
+        if (!x.allFinite()) return false;
+    return true;
+}
+
+}  // namespace
+
+Model prepare_model(const PointCloud& cloud, const FeatureParams& params, const std::string& source,
+                    FeatureTimings* timings)
+{
+    if (cloud.empty()) throw Error(source, "the model cloud has no finite points");
+    Model model;
+    model.points = cloud.points;
+    model.params = params;
+    model.source = source;
+    model.normals.resize(model.points.size());
+    {
+        const NeighborGrid grid(model.points, 0.005f);
+        estimate_normals(model.points, grid, NormalParams{params.normal_k, Point::Zero()}, model.normals);
+    }
+    const auto keypoints = uniform_sampling(model.points, params.keypoint_radius);
+    model.features = describe_keypoints(model.points, keypoints, model.points, params, timings);
+    if (model.features.size() < 3)
+        throw Error(source, "the model has " + std::to_string(model.features.size()) +
+                                " usable keypoints (fewer than 3): is it too small for keypoint_radius " +
+                                std::to_string(params.keypoint_radius) + "?");
+    return model;
+}
+
+void write_model_cache(const std::filesystem::path& path, const Model& model)
+{
+    Writer w;
+    w.bytes().append(magic, sizeof magic);
+    w.value(model_cache_version);
+    w.value(std::int32_t(model.params.normal_k));
+    w.value(model.params.keypoint_radius);
+    w.value(model.params.lrf_radius);
+    w.value(model.params.shot_radius);
+    w.array(std::vector<char>(model.source.begin(), model.source.end()));
+    w.array(model.points);
+    w.array(model.normals);
+    w.value(std::uint64_t(model.features.candidates));
+    w.value(std::uint64_t(model.features.invalid));
+    w.array(model.features.keypoints);
+    w.array(model.features.frames);
+    w.array(model.features.descriptors);
+    const std::uint64_t checksum = fnv1a(w.bytes().data(), w.bytes().size());
+    w.value(checksum);
+    write_file_atomically(path, [&](std::ofstream& out) { out.write(w.bytes().data(), std::streamsize(w.bytes().size())); });
+}
+
+Model read_model_cache(const std::filesystem::path& path)
+{
+    const std::string where = path.string();
+    const std::string bytes = read_text_file(path);
+    if (bytes.size() < sizeof magic + 4 || std::memcmp(bytes.data(), magic, sizeof magic) != 0)
+        throw Error(where, "not an mfpc model cache (.mfpcm): wrong magic bytes");
+    std::uint32_t version = 0;
+    std::memcpy(&version, bytes.data() + sizeof magic, 4);
+    if (version != model_cache_version)
+        throw Error(where, "model cache format version " + std::to_string(version) + ", this mfpc reads version " +
+                               std::to_string(model_cache_version) + ": run `mfpc model` again");
+    if (bytes.size() < sizeof magic + 4 + 8) throw Error(where, "truncated model cache");
+    const std::size_t body = bytes.size() - 8;
+    std::uint64_t stored = 0;
+    std::memcpy(&stored, bytes.data() + body, 8);
+    if (stored != fnv1a(bytes.data(), body)) throw Error(where, "corrupt model cache: checksum mismatch");
+
+    Reader r(bytes, body, where);
+    r.value<std::array<char, sizeof magic>>();
+    r.value<std::uint32_t>();
+    Model model;
+    model.params.normal_k = r.value<std::int32_t>();
+    model.params.keypoint_radius = r.value<float>();
+    model.params.lrf_radius = r.value<float>();
+    model.params.shot_radius = r.value<float>();
+    const auto source = r.array<char>();
+    model.source = std::string(source.begin(), source.end());
+    model.points = r.array<Point>();
+    model.normals = r.array<Point>(model.points.size());
+    model.features.candidates = r.value<std::uint64_t>();
+    model.features.invalid = r.value<std::uint64_t>();
+    model.features.keypoints = r.array<Point>();
+    model.features.frames = r.array<LocalReferenceFrame>(model.features.keypoints.size());
+    model.features.descriptors = r.array<float>(model.features.keypoints.size() * shot_size);
+    if (r.position() != body) throw Error(where, "corrupt model cache: trailing bytes");
+    if (!all_finite(model.points) || !all_finite(model.features.keypoints) || !all_finite(model.features.frames))
+        throw Error(where, "corrupt model cache: non-finite coordinates");
+    if (model.features.size() < 3) throw Error(where, "the cached model has fewer than 3 keypoints");
+    return model;
+}
+
+}  // namespace mfpc

@@ -1,0 +1,87 @@
+#include "mfpc/recognition/recognize.hpp"
+
+#include <chrono>
+
+#include "mfpc/core/error.hpp"
+#include "mfpc/index/neighbor_grid.hpp"
+#include "mfpc/index/point_index.hpp"
+#include "mfpc/kernels/foveate.hpp"
+#include "mfpc/kernels/uniform_sampling.hpp"
+#include "mfpc/recognition/verification.hpp"
+
+namespace mfpc {
+namespace {
+
+using Clock = std::chrono::steady_clock;
+double elapsed_ms(Clock::time_point since)
+{
+    return std::chrono::duration<double, std::milli>(Clock::now() - since).count();
+}
+
+}  // namespace
+
+RecognitionResult recognize(const Model& model, const PointCloud& scene, const RecognitionParams& params,
+                            const SceneFoveation& foveation)
+{
+    check_recognition_params(params);
+    if (scene.empty()) throw Error("recognize", "the scene has no finite points");
+    const auto start = Clock::now();
+    RecognitionResult result;
+    result.counts.scene_points = scene.size();
+    result.counts.model_keypoints = model.features.size();
+    result.counts.model_keypoints_invalid = model.features.invalid;
+
+    FoveatedCloud foveated;
+    const PointCloud* used = &scene;
+    if (foveation.config != nullptr && foveation.mode != FoveationMode::none) {
+        const auto t = Clock::now();
+        const PointIndex index(scene.points);
+        foveated = foveate(scene, index, *foveation.config, foveation.mode, foveation.single_structure);
+        used = &foveated.cloud;
+        result.timings.foveate = elapsed_ms(t);
+    }
+    result.counts.scene_points_used = used->size();
+
+    auto t = Clock::now();
+    const std::vector<std::uint32_t> keypoints =
+        used == &scene ? uniform_sampling(scene.points, params.scene.keypoint_radius)
+                       : uniform_sampling(used->points, foveated.labels, foveation.config->structures);
+    result.timings.keypoints = elapsed_ms(t);
+
+    FeatureTimings feature_timings;
+    const std::span<const Point> normal_source =
+        params.normals_from == NormalsFrom::full ? std::span<const Point>(scene.points) : std::span<const Point>(used->points);
+    result.scene_features = describe_keypoints(used->points, keypoints, normal_source, params.scene, &feature_timings);
+    result.timings.normals = feature_timings.normals_ms;
+    result.timings.lrf = feature_timings.lrf_ms;
+    result.timings.descriptors = feature_timings.descriptors_ms;
+    result.counts.scene_keypoints = result.scene_features.size();
+    result.counts.scene_keypoints_invalid = result.scene_features.invalid;
+
+    t = Clock::now();
+    result.correspondences = match_descriptors(model.features, result.scene_features, params.match);
+    result.counts.correspondences = result.correspondences.size();
+    result.timings.match = elapsed_ms(t);
+
+    t = Clock::now();
+    result.instances = params.grouping.method == Grouping::hough
+                           ? hough_grouping(model.features, result.scene_features, result.correspondences, params.grouping)
+                           : gc_grouping(model.features, result.scene_features, result.correspondences, params.grouping);
+    result.counts.instances_before_verification = result.instances.size();
+    result.timings.group = elapsed_ms(t);
+
+    if (params.refine.enabled || params.verify.enabled) {
+        t = Clock::now();
+        // Verification looks at the whole scene, whatever foveation kept: it asks whether the
+        // sensor saw the model there.
+        const NeighborGrid grid(scene.points, std::max(params.refine.max_distance, params.verify.inlier_distance));
+        const SceneEvidence evidence = make_scene_evidence(scene, grid);
+        result.instances = refine_and_verify(std::move(result.instances), model.points, model.normals, evidence,
+                                             params.refine, params.verify);
+        result.timings.verify = elapsed_ms(t);
+    }
+    result.timings.total = elapsed_ms(start);
+    return result;
+}
+
+}  // namespace mfpc

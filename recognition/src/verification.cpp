@@ -1,0 +1,234 @@
+#include "mfpc/recognition/verification.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <memory>
+#include <string>
+
+#include <tbb/blocked_range.h>
+#include <tbb/parallel_for.h>
+
+#include "mfpc/core/error.hpp"
+#include "mfpc/kernels/uniform_sampling.hpp"
+
+namespace mfpc {
+namespace {
+
+// Nearest scene point within `radius` of p; NaN distance when none.
+float nearest_distance2(const NeighborGrid& grid, const Point& p, float radius, std::uint32_t& nearest,
+                        std::vector<std::uint32_t>& indices, std::vector<float>& distances)
+{
+    grid.radius_search(p, radius, indices, distances);
+    float best = std::numeric_limits<float>::quiet_NaN();
+    for (std::size_t i = 0; i < indices.size(); ++i) {
+        if (std::isnan(best) || distances[i] < best || (distances[i] == best && indices[i] < nearest)) {
+            best = distances[i];
+            nearest = indices[i];
+        }
+    }
+    return best;
+}
+
+struct Fit {
+    Pose pose;
+    float rmse = 0.0f;
+};
+
+Fit icp(const Pose& start, std::span<const Point> model, const SceneEvidence& scene, const RefineParams& params)
+{
+    Fit fit{start, 0.0f};
+    std::vector<std::uint32_t> indices;
+    std::vector<float> distances;
+    std::vector<Point> from, to;
+    for (int it = 0; it < params.iterations; ++it) {
+        from.clear();
+        to.clear();
+        double squared_sum = 0.0;
+        for (const Point& m : model) {
+            const Point moved = fit.pose * m;
+            std::uint32_t nearest = 0;
+            const float d2 = nearest_distance2(*scene.grid, moved, params.max_distance, nearest, indices, distances);
+            if (std::isnan(d2)) continue;
+            from.push_back(moved);
+            to.push_back(scene.points[nearest]);
+            squared_sum += d2;
+        }
+        if (from.size() < 3) break;
+        fit.rmse = float(std::sqrt(squared_sum / double(from.size())));
+        const Pose step = fit_rigid(from, to);
+        fit.pose = step * fit.pose;
+        if (step.translation().norm() < 1e-6f && rotation_error_deg(step, Pose::Identity()) < 1e-4f) break;
+    }
+    return fit;
+}
+
+}  // namespace
+
+std::optional<Camera> fit_camera(const PointCloud& organized)
+{
+    if (!organized.organized() || organized.size() < 100) return std::nullopt;
+    // u = fx * x / z + cx, v = fy * y / z + cy: two straight-line fits.
+    double sx = 0, su = 0, sxx = 0, sxu = 0, sy = 0, sv = 0, syy = 0, syv = 0;
+    std::size_t n = 0;
+    for (std::size_t i = 0; i < organized.size(); ++i) {
+        const Point& p = organized.points[i];
+        if (!(p.z() > 0.0f)) continue;
+        const std::uint32_t position = organized.source_position(i);
+        const double u = position % organized.width, v = position / organized.width;
+        const double x = p.x() / p.z(), y = p.y() / p.z();
+        sx += x, su += u, sxx += x * x, sxu += x * u;
+        sy += y, sv += v, syy += y * y, syv += y * v;
+        ++n;
+    }
+    if (n < 100) return std::nullopt;
+    const double dn = double(n);
+    const double fx = (dn * sxu - sx * su) / (dn * sxx - sx * sx);
+    const double fy = (dn * syv - sy * sv) / (dn * syy - sy * sy);
+    if (!std::isfinite(fx) || !std::isfinite(fy) || fx <= 0 || fy <= 0) return std::nullopt;
+    Camera camera;
+    camera.fx = float(fx);
+    camera.fy = float(fy);
+    camera.cx = float((su - fx * sx) / dn);
+    camera.cy = float((sv - fy * sy) / dn);
+    camera.width = organized.width;
+    camera.height = organized.height;
+    double error = 0;
+    for (std::size_t i = 0; i < organized.size(); ++i) {
+        const Point& p = organized.points[i];
+        if (!(p.z() > 0.0f)) continue;
+        const std::uint32_t position = organized.source_position(i);
+        const double du = camera.fx * p.x() / p.z() + camera.cx - double(position % organized.width);
+        const double dv = camera.fy * p.y() / p.z() + camera.cy - double(position / organized.width);
+        error += du * du + dv * dv;
+    }
+    if (std::sqrt(error / dn) > 1.0) return std::nullopt;
+    return camera;
+}
+
+SceneEvidence make_scene_evidence(const PointCloud& scene, const NeighborGrid& grid)
+{
+    SceneEvidence evidence;
+    evidence.points = scene.points;
+    evidence.grid = &grid;
+    evidence.camera = fit_camera(scene);
+    if (evidence.camera) {
+        evidence.depth.assign(scene.source_size(), std::numeric_limits<float>::quiet_NaN());
+        for (std::size_t i = 0; i < scene.size(); ++i) evidence.depth[scene.source_position(i)] = scene.points[i].z();
+    }
+    return evidence;
+}
+
+std::vector<Instance> refine_and_verify(std::vector<Instance> instances, std::span<const Point> model_points,
+                                        std::span<const Point> model_normals, const SceneEvidence& scene,
+                                        const RefineParams& refine, const VerifyParams& verify)
+{
+    if (!refine.enabled && !verify.enabled) return instances;
+    if (model_normals.size() != model_points.size())
+        throw Error("refine_and_verify", "the model has " + std::to_string(model_normals.size()) + " normals for " +
+                                             std::to_string(model_points.size()) + " points");
+    if (scene.grid == nullptr) throw Error("refine_and_verify", "no scene grid");
+
+    // Thin the model once: ICP and the fit statistics need its shape, not every point.
+    std::vector<std::uint32_t> kept;
+    if (refine.model_voxel > 0.0f) kept = uniform_sampling(model_points, refine.model_voxel);
+    else
+        for (std::uint32_t i = 0; i < model_points.size(); ++i) kept.push_back(i);
+    std::vector<Point> points, normals;
+    for (std::uint32_t i : kept) {
+        points.push_back(model_points[i]);
+        normals.push_back(model_normals[i]);
+    }
+
+    tbb::parallel_for(std::size_t(0), instances.size(), [&](std::size_t n) {
+        Instance& instance = instances[n];
+        if (refine.enabled) {
+            const Fit fit = icp(instance.transform, points, scene, refine);
+            instance.transform = fit.pose;
+            instance.rmse = fit.rmse;
+        }
+        if (!verify.enabled) return;
+        std::vector<std::uint32_t> indices;
+        std::vector<float> distances;
+        std::size_t facing = 0, inliers = 0, projected = 0, violations = 0;
+        const float inlier2 = verify.inlier_distance * verify.inlier_distance;
+        for (std::size_t i = 0; i < points.size(); ++i) {
+            const Point p = instance.transform * points[i];
+            // Free space, for every model point whichever way its surface faces: a solid object
+            // there would have stopped the sensor's ray, so a surface observed behind it refutes it.
+            bool hidden = false;
+            if (scene.camera && p.z() > 0.0f) {
+                const Camera& c = *scene.camera;
+                const long u = std::lround(c.fx * p.x() / p.z() + c.cx);
+                const long v = std::lround(c.fy * p.y() / p.z() + c.cy);
+                if (u >= 0 && v >= 0 && u < long(c.width) && v < long(c.height)) {
+                    const float observed = scene.depth[std::size_t(v) * c.width + std::size_t(u)];
+                    if (std::isfinite(observed)) {
+                        ++projected;
+                        if (observed > p.z() + verify.free_space_margin) ++violations;
+                        // Something in front hides the point: no evidence for or against it.
+                        hidden = observed < p.z() - verify.free_space_margin;
+                    }
+                }
+            }
+            // Fitness, over the points the sensor could have seen: facing it, and not hidden.
+            if (hidden || !normals[i].allFinite()) continue;
+            const Point normal = instance.transform.linear() * normals[i];
+            if (normal.dot(-p) <= 0.0f) continue;
+            ++facing;
+            std::uint32_t nearest = 0;
+            const float d2 = nearest_distance2(*scene.grid, p, verify.inlier_distance, nearest, indices, distances);
+            if (!std::isnan(d2) && d2 <= inlier2) ++inliers;
+        }
+        instance.fitness = facing ? float(inliers) / float(facing) : 0.0f;
+        instance.coverage = points.empty() ? 0.0f : float(inliers) / float(points.size());
+        instance.free_space_violation = projected ? float(violations) / float(projected) : 0.0f;
+    });
+    if (!verify.enabled) return instances;
+
+    std::vector<Instance> accepted;
+    for (auto& instance : instances)
+        if (instance.fitness >= verify.min_inlier_fraction && instance.coverage >= verify.min_coverage &&
+            instance.free_space_violation <= verify.max_free_space_fraction)
+            accepted.push_back(std::move(instance));
+    if (!verify.merge) return accepted;
+    // Duplicates: two solid objects cannot share space, so an instance whose placed model overlaps
+    // a better one's (merge_overlap of its points within merge_distance of the other's) is the same
+    // object posed twice: a near-symmetric carton turned half a turn, or slid along its own face.
+    // The better fit (then the earlier) stays; the original order is kept.
+    std::vector<std::size_t> by_fitness(accepted.size());
+    for (std::size_t i = 0; i < by_fitness.size(); ++i) by_fitness[i] = i;
+    std::stable_sort(by_fitness.begin(), by_fitness.end(),
+                     [&](std::size_t a, std::size_t b) { return accepted[a].fitness > accepted[b].fitness; });
+    std::vector<std::uint8_t> keep(accepted.size(), 0);
+    std::vector<std::vector<Point>> kept_points;
+    std::vector<std::unique_ptr<NeighborGrid>> kept_grids;
+    std::vector<std::uint32_t> indices;
+    std::vector<float> distances;
+    for (std::size_t i : by_fitness) {
+        std::vector<Point> placed(points.size());
+        for (std::size_t p = 0; p < points.size(); ++p) placed[p] = accepted[i].transform * points[p];
+        bool duplicate = false;
+        for (const auto& grid : kept_grids) {
+            std::size_t close = 0;
+            for (const Point& p : placed) {
+                grid->radius_search(p, verify.merge_distance, indices, distances);
+                if (!indices.empty()) ++close;
+            }
+            if (!placed.empty() && float(close) >= verify.merge_overlap * float(placed.size())) {
+                duplicate = true;
+                break;
+            }
+        }
+        if (duplicate) continue;
+        keep[i] = 1;
+        kept_points.push_back(std::move(placed));
+        kept_grids.push_back(std::make_unique<NeighborGrid>(kept_points.back(), std::max(verify.merge_distance, 1e-3f)));
+    }
+    std::vector<Instance> merged;
+    for (std::size_t i = 0; i < accepted.size(); ++i)
+        if (keep[i]) merged.push_back(std::move(accepted[i]));
+    return merged;
+}
+
+}  // namespace mfpc

@@ -1,0 +1,209 @@
+#include <cmath>
+#include <cstring>
+#include <random>
+#include <vector>
+
+#include <Eigen/Geometry>
+#include <gtest/gtest.h>
+#include <tbb/global_control.h>
+
+#include "mfpc/core/cloud_io.hpp"
+#include "mfpc/core/error.hpp"
+#include "mfpc/core/text_file.hpp"
+#include "mfpc/kernels/shot.hpp"
+#include "mfpc/recognition/evaluation.hpp"
+#include "mfpc/recognition/grouping.hpp"
+#include "mfpc/recognition/model.hpp"
+#include "mfpc/recognition/params.hpp"
+#include "mfpc/recognition/recognize.hpp"
+#include "test_support.hpp"
+
+namespace mfpc {
+namespace {
+
+Pose random_pose(std::mt19937& rng)
+{
+    std::uniform_real_distribution<float> unit(-1.0f, 1.0f);
+    const Eigen::Vector3f axis = Eigen::Vector3f(unit(rng), unit(rng), unit(rng)).normalized();
+    Pose pose = Pose::Identity();
+    pose.linear() = Eigen::AngleAxisf(3.0f * unit(rng), axis).toRotationMatrix();
+    pose.translation() = Eigen::Vector3f(unit(rng), unit(rng), 1.5f + unit(rng));
+    return pose;
+}
+
+TEST(FitRigid, RecoversAKnownTransform)
+{
+    std::mt19937 rng(5);
+    std::uniform_real_distribution<float> unit(-0.1f, 0.1f);
+    const Pose truth = random_pose(rng);
+    std::vector<Point> from, to;
+    for (int i = 0; i < 50; ++i) {
+        from.emplace_back(unit(rng), unit(rng), unit(rng));
+        to.push_back(truth * from.back());
+    }
+    const Pose fitted = fit_rigid(from, to);
+    EXPECT_LT(translation_error(fitted, truth), 1e-5f);
+    EXPECT_LT(rotation_error_deg(fitted, truth), 1e-2f);
+    EXPECT_THROW(fit_rigid(std::span(from).first(2), std::span(to).first(2)), Error);
+}
+
+// Two copies of a model keypoint set at known poses, with frames carried along, plus random
+// outlier correspondences: Hough voting must return both poses and nothing else.
+TEST(HoughGrouping, FindsTwoPlantedInstancesAmongOutliers)
+{
+    std::mt19937 rng(9);
+    std::uniform_real_distribution<float> unit(-0.08f, 0.08f);
+    Features model;
+    for (int i = 0; i < 60; ++i) {
+        model.keypoints.emplace_back(unit(rng), unit(rng), unit(rng));
+        model.frames.push_back(random_pose(rng).linear());
+    }
+    const Pose poses[2] = {random_pose(rng), random_pose(rng)};
+    Features scene;
+    std::vector<Correspondence> correspondences;
+    for (int copy = 0; copy < 2; ++copy) {
+        for (std::uint32_t i = 0; i < model.keypoints.size(); ++i) {
+            scene.keypoints.push_back(poses[copy] * model.keypoints[i]);
+            // A frame's rows are its axes in scene coordinates: rotate them with the object.
+            scene.frames.push_back(model.frames[i] * poses[copy].linear().transpose());
+            correspondences.push_back({i, std::uint32_t(scene.keypoints.size() - 1), 0.1f});
+        }
+    }
+    std::uniform_int_distribution<std::uint32_t> pick_model(0, 59), pick_scene(0, 119);
+    for (int i = 0; i < 60; ++i) correspondences.push_back({pick_model(rng), pick_scene(rng), 0.2f});
+    const auto instances = hough_grouping(model, scene, correspondences, GroupingParams{});
+    ASSERT_EQ(instances.size(), 2u);
+    for (const auto& instance : instances) {
+        const float error = std::min(translation_error(instance.transform, poses[0]), translation_error(instance.transform, poses[1]));
+        EXPECT_LT(error, 1e-4f);
+        EXPECT_GE(instance.correspondences.size(), 50u);
+    }
+}
+
+TEST(RecognitionParams, DefaultsRoundTripAndBadValuesAreNamed)
+{
+    const RecognitionParams defaults;
+    const RecognitionParams parsed = parse_recognition_params(to_json(defaults), "defaults");
+    EXPECT_EQ(to_json(parsed), to_json(defaults));
+    const auto message = [](const char* text) {
+        try {
+            parse_recognition_params(text, "p.json");
+        } catch (const Error& e) {
+            return std::string(e.what());
+        }
+        return std::string("no error");
+    };
+    EXPECT_EQ(message(R"({"scene": {"shot_radius": 0}})"), "p.json: scene.shot_radius: must be a positive number, got 0.000000");
+    EXPECT_NE(message(R"({"scene": {"shot_radus": 0.02}})").find("p.json: scene.shot_radus: unknown key"), std::string::npos);
+    EXPECT_NE(message(R"({"match_k": 2.5})").find("p.json: match_k: must be an integer"), std::string::npos);
+    EXPECT_NE(message(R"({"grouping": "ransac"})").find("must be one of hough|gc"), std::string::npos);
+    EXPECT_NE(message(R"({"verify": {"min_coverage": 2}})").find("verify.min_coverage"), std::string::npos);
+    EXPECT_NE(message("[1, 2]").find("must be a JSON object"), std::string::npos);
+    EXPECT_NE(message("{").find("invalid JSON"), std::string::npos);
+}
+
+TEST(ModelCache, RoundTripsAndRejectsDamage)
+{
+    MFPC_SHARED_FILE_OR_SKIP(path, "milk.pcd");
+    const Model model = prepare_model(read_cloud(path), RecognitionParams{}.model, "milk.pcd");
+    const test::TempDir dir;
+    write_model_cache(dir / "m.mfpcm", model);
+    const Model back = read_model_cache(dir / "m.mfpcm");
+    EXPECT_EQ(back.source, "milk.pcd");
+    EXPECT_EQ(back.points, model.points);
+    ASSERT_EQ(back.features.size(), model.features.size());
+    EXPECT_EQ(0, std::memcmp(back.features.descriptors.data(), model.features.descriptors.data(),
+                             model.features.descriptors.size() * sizeof(float)));
+    EXPECT_EQ(to_json(RecognitionParams{back.params, back.params, {}, {}, {}, {}, {}}),
+              to_json(RecognitionParams{model.params, model.params, {}, {}, {}, {}, {}}));
+
+    const std::string bytes = read_text_file(dir / "m.mfpcm");
+    std::string old_version = bytes;
+    old_version[8] = 99;
+    for (const auto& [name, content] : {std::pair{"short.mfpcm", bytes.substr(0, bytes.size() / 3)},
+                                        std::pair{"magic.mfpcm", "XXXX" + bytes.substr(4)},
+                                        std::pair{"version.mfpcm", old_version}}) {
+        const auto file = dir.write(name, content);
+        EXPECT_THROW(read_model_cache(file), Error) << name;
+    }
+}
+
+// The acceptance bars of the recognition stage on the shared real scenes, with the built-in
+// defaults (the same for every scene).
+struct SceneCase {
+    const char* scene;
+    const char* truth;
+    const char* fovea;  // nullptr: plain
+    std::size_t instances;
+};
+
+class RealScenes : public ::testing::TestWithParam<SceneCase> {};
+
+TEST_P(RealScenes, DefaultsFindEveryInstanceAndNothingElse)
+{
+    const SceneCase c = GetParam();
+    MFPC_SHARED_FILE_OR_SKIP(model_path, "milk.pcd");
+    MFPC_SHARED_FILE_OR_SKIP(scene_path, c.scene);
+    MFPC_SHARED_FILE_OR_SKIP(truth_path, c.truth);
+    const RecognitionParams params;
+    const Model model = prepare_model(read_cloud(model_path), params.model, "milk.pcd");
+    const PointCloud scene = read_cloud(scene_path);
+    FoveationConfig config;
+    SceneFoveation foveation;
+    if (c.fovea) {
+        config = read_foveation_config(std::filesystem::path(MFPC_SOURCE_DIR) / "examples/configs" / c.fovea);
+        foveation = {&config, FoveationMode::mfpc, 0};
+    }
+    const RecognitionResult result = recognize(model, scene, params, foveation);
+    const Evaluation evaluation = evaluate(result, model, read_ground_truth(truth_path));
+    EXPECT_EQ(evaluation.instances_true, c.instances);
+    EXPECT_EQ(evaluation.instances_false, 0u);
+    ASSERT_EQ(result.instances.size(), c.instances);
+    for (std::size_t i = 0; i < result.instances.size(); ++i) {
+        // Issue bar: within 5 mm and 2 degrees (measured at the model's centroid).
+        EXPECT_LT(evaluation.position_error[i], 0.005f) << i;
+        EXPECT_LT(evaluation.rotation_error_deg[i], 2.0f) << i;
+    }
+}
+
+INSTANTIATE_TEST_SUITE_P(Shared, RealScenes,
+                         ::testing::Values(SceneCase{"milk_cartoon_all_small_clorox.pcd",
+                                                     "milk_cartoon_all_small_clorox.gt.json", nullptr, 1},
+                                           SceneCase{"milk_cartoon_all_small_clorox.pcd",
+                                                     "milk_cartoon_all_small_clorox.gt.json", "milk_carton.json", 1},
+                                           SceneCase{"milk_pair.pcd", "milk_pair.gt.json", nullptr, 2},
+                                           SceneCase{"milk_pair.pcd", "milk_pair.gt.json", "milk_pair_two.json", 2}));
+
+// The whole pipeline gives the same bits with one thread and two.
+TEST(Recognize, BitIdenticalAcrossThreadCounts)
+{
+    MFPC_SHARED_FILE_OR_SKIP(model_path, "milk.pcd");
+    MFPC_SHARED_FILE_OR_SKIP(scene_path, "milk_pair.pcd");
+    const RecognitionParams params;
+    const PointCloud model_cloud = read_cloud(model_path);
+    const PointCloud scene = read_cloud(scene_path);
+    const FoveationConfig config =
+        read_foveation_config(std::filesystem::path(MFPC_SOURCE_DIR) / "examples/configs/milk_pair_two.json");
+    RecognitionResult results[2];
+    Model models[2];
+    for (int threads = 1; threads <= 2; ++threads) {
+        tbb::global_control limit(tbb::global_control::max_allowed_parallelism, std::size_t(threads));
+        models[threads - 1] = prepare_model(model_cloud, params.model, "milk.pcd");
+        results[threads - 1] = recognize(models[threads - 1], scene, params, {&config, FoveationMode::mfpc, 0});
+    }
+    EXPECT_EQ(0, std::memcmp(models[0].features.descriptors.data(), models[1].features.descriptors.data(),
+                             models[0].features.descriptors.size() * sizeof(float)));
+    ASSERT_EQ(results[0].scene_features.descriptors.size(), results[1].scene_features.descriptors.size());
+    EXPECT_EQ(0, std::memcmp(results[0].scene_features.descriptors.data(), results[1].scene_features.descriptors.data(),
+                             results[0].scene_features.descriptors.size() * sizeof(float)));
+    EXPECT_EQ(results[0].correspondences, results[1].correspondences);
+    ASSERT_EQ(results[0].instances.size(), results[1].instances.size());
+    for (std::size_t i = 0; i < results[0].instances.size(); ++i) {
+        EXPECT_EQ(0, std::memcmp(results[0].instances[i].transform.data(), results[1].instances[i].transform.data(),
+                                 16 * sizeof(float)));
+        EXPECT_EQ(results[0].instances[i].fitness, results[1].instances[i].fitness);
+    }
+}
+
+}  // namespace
+}  // namespace mfpc
