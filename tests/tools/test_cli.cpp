@@ -9,45 +9,16 @@
 #include <nlohmann/json.hpp>
 
 #include "mfpc/core/cloud_io.hpp"
+#include "cli_runner.hpp"
 #include "test_support.hpp"
 
 namespace mfpc {
 namespace {
 
-struct Result {
-    int exit_code = -1;
-    std::string out;
-    std::string err;
-};
-
-std::string slurp(const std::filesystem::path& path)
-{
-    std::ifstream in(path, std::ios::binary);
-    std::stringstream text;
-    text << in.rdbuf();
-    return text.str();
-}
-
-// Runs `mfpc ARGS` through the shell, capturing stdout, stderr and the exit code.
-Result run(const std::string& args)
-{
-    const test::TempDir dir;
-    const auto out = dir / "stdout";
-    const auto err = dir / "stderr";
-    const std::string command = std::string("'") + MFPC_CLI_PATH + "' " + args + " >'" + out.string() + "' 2>'" +
-                                err.string() + "' </dev/null";
-    const int status = std::system(command.c_str());
-    Result result;
-    result.exit_code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
-    result.out = slurp(out);
-    result.err = slurp(err);
-    return result;
-}
-
-int line_count(const std::string& text)
-{
-    return int(std::count(text.begin(), text.end(), '\n'));
-}
+using test::Result;
+using test::line_count;
+using test::run;
+using test::slurp;
 
 TEST(Cli, HelpAndVersion)
 {

@@ -10,5 +10,7 @@ namespace mfpc::cli {
 // mfpc::Error on failure.
 void add_info_command(CLI::App& app, const GlobalOptions& global);
 void add_foveate_command(CLI::App& app, const GlobalOptions& global);
+void add_model_command(CLI::App& app, const GlobalOptions& global);
+void add_recognize_command(CLI::App& app, const GlobalOptions& global);
 
 }  // namespace mfpc::cli

@@ -34,6 +34,8 @@ int main(int argc, char** argv)
 
     add_info_command(app, global);
     add_foveate_command(app, global);
+    add_model_command(app, global);
+    add_recognize_command(app, global);
 
     // The thread limit must be in force before any command runs, so it is set from a pre-parse
     // callback: after the options are read, before the subcommand callbacks.

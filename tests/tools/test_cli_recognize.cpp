@@ -1,0 +1,108 @@
+// `mfpc model` and `mfpc recognize` as a user meets them: the model cache, the result JSON, and
+// one-line errors for bad input.
+#include <fstream>
+#include <string>
+
+#include <gtest/gtest.h>
+#include <nlohmann/json.hpp>
+
+#include "cli_runner.hpp"
+#include "test_support.hpp"
+
+namespace mfpc {
+namespace {
+
+using test::line_count;
+using test::Result;
+using test::run;
+using test::slurp;
+
+std::string quoted(const std::filesystem::path& path) { return "'" + path.string() + "'"; }
+
+void expect_one_line_error(const Result& r, int code, const std::string& what)
+{
+    EXPECT_EQ(r.exit_code, code) << what << "\n" << r.err;
+    EXPECT_EQ(r.err.rfind("mfpc: ", 0), 0u) << what << "\n" << r.err;
+    EXPECT_EQ(line_count(r.err), 1) << what << "\n" << r.err;
+}
+
+TEST(CliRecognize, UsageErrorsExitTwo)
+{
+    for (const char* args : {"recognize", "recognize --model m.pcd", "recognize --scene s.pcd",
+                             "recognize --model m.pcd --scene s.pcd --mode mfpc",
+                             "recognize --model m.pcd --scene s.pcd --mode sideways", "model", "model m.pcd",
+                             "model m.pcd -o m.bin"}) {
+        expect_one_line_error(run(args), 2, args);
+    }
+}
+
+TEST(CliRecognize, BadInputIsOneLineAndExitOne)
+{
+    MFPC_SHARED_FILE_OR_SKIP(model, "milk.pcd");
+    const test::TempDir dir;
+    const auto garbage = dir.write("garbage.mfpcm", "this is not a model cache");
+    const auto bad_params = dir.write("params.json", R"({"scene": {"shot_radius": -1}})");
+    const auto unknown_key = dir.write("unknown.json", R"({"hough_bins": 0.01})");
+    const auto not_json = dir.write("broken.json", "{");
+    const auto empty = dir.write("empty.pcd", "");
+    expect_one_line_error(run("recognize --model " + quoted(garbage) + " --scene " + quoted(model)), 1, "garbage cache");
+    expect_one_line_error(run("recognize --model " + quoted(dir / "missing.pcd") + " --scene " + quoted(model)), 1,
+                          "missing model");
+    expect_one_line_error(run("recognize --model " + quoted(model) + " --scene " + quoted(empty)), 1, "empty scene");
+    for (const auto& params : {bad_params, unknown_key, not_json}) {
+        const Result r = run("recognize --model " + quoted(model) + " --scene " + quoted(model) + " --params " +
+                             quoted(params));
+        expect_one_line_error(r, 1, params.string());
+    }
+    const Result r = run("recognize --model " + quoted(model) + " --scene " + quoted(model) + " --params " +
+                         quoted(unknown_key));
+    EXPECT_NE(r.err.find("hough_bins"), std::string::npos) << r.err;
+}
+
+// The model cache: written once, read instead of the cloud with the same result; a cache damaged
+// on disk is refused, not trusted.
+TEST(CliRecognize, ModelCacheGivesTheSameResultAndRejectsDamage)
+{
+    MFPC_SHARED_FILE_OR_SKIP(model, "milk.pcd");
+    MFPC_SHARED_FILE_OR_SKIP(scene, "milk_pair.pcd");
+    MFPC_SHARED_FILE_OR_SKIP(truth, "milk_pair.gt.json");
+    const test::TempDir dir;
+    const auto cache = dir / "milk.mfpcm";
+    const Result made = run("-q model " + quoted(model) + " -o " + quoted(cache));
+    ASSERT_EQ(made.exit_code, 0) << made.err;
+
+    const auto fovea = std::filesystem::path(MFPC_SOURCE_DIR) / "examples/configs/milk_pair_two.json";
+    const std::string rest = " --scene " + quoted(scene) + " --ground-truth " + quoted(truth) + " --fovea " + quoted(fovea);
+    const Result from_cloud = run("--json " + quoted(dir / "a.json") + " recognize --model " + quoted(model) + rest);
+    const Result from_cache = run("--json " + quoted(dir / "b.json") + " recognize --model " + quoted(cache) + rest);
+    ASSERT_EQ(from_cloud.exit_code, 0) << from_cloud.err;
+    ASSERT_EQ(from_cache.exit_code, 0) << from_cache.err;
+    const auto a = nlohmann::json::parse(slurp(dir / "a.json"));
+    const auto b = nlohmann::json::parse(slurp(dir / "b.json"));
+    EXPECT_EQ(a["instances"], b["instances"]);
+    EXPECT_EQ(a["evaluation"]["instances_true"], 2);
+    EXPECT_EQ(a["evaluation"]["instances_false"], 0);
+    EXPECT_TRUE(b["model_timings_ms"]["cached"].get<bool>());
+    for (const char* key : {"scene_points", "scene_points_used", "scene_keypoints", "model_keypoints", "correspondences"})
+        EXPECT_TRUE(a["counts"].contains(key)) << key;
+    for (const char* key : {"foveate", "normals", "keypoints", "lrf", "descriptors", "match", "group", "verify", "total"})
+        EXPECT_TRUE(a["timings_ms"].contains(key)) << key;
+    ASSERT_EQ(a["instances"][0]["transform"].size(), 16u);
+
+    // One flipped byte in the middle, and a truncated copy.
+    std::string bytes = slurp(cache);
+    bytes[bytes.size() / 2] ^= 0x40;
+    const auto flipped = dir.write("flipped.mfpcm", bytes);
+    const auto truncated = dir.write("truncated.mfpcm", slurp(cache).substr(0, 100));
+    for (const auto& damaged : {flipped, truncated}) {
+        const Result r = run("recognize --model " + quoted(damaged) + " --scene " + quoted(scene));
+        expect_one_line_error(r, 1, damaged.string());
+    }
+    // A cache made with other model parameters than --params asks for is stale.
+    const auto params = dir.write("params.json", R"({"model": {"keypoint_radius": 0.02}})");
+    const Result stale = run("recognize --model " + quoted(cache) + " --scene " + quoted(scene) + " --params " + quoted(params));
+    expect_one_line_error(stale, 1, "stale cache");
+}
+
+}  // namespace
+}  // namespace mfpc
