@@ -229,29 +229,47 @@ bool NeighborGrid::nearest(const Point& center, float radius, std::uint32_t& ind
 {
     if (points_.empty() || !(radius >= 0.0f)) return false;
     const float radius2 = radius * radius;
-    const Eigen::Vector3f lo_f = ((center.array() - radius) * inverse_cell_).floor();
-    const Eigen::Vector3f hi_f = ((center.array() + radius) * inverse_cell_).floor();
-    const Eigen::Vector3i lo =
-        lo_f.cwiseMax(min_cell_.cast<float>()).cwiseMin(max_cell_.cast<float>() + Eigen::Vector3f::Ones()).cast<int>();
-    const Eigen::Vector3i hi =
-        hi_f.cwiseMin(max_cell_.cast<float>()).cwiseMax(min_cell_.cast<float>() - Eigen::Vector3f::Ones()).cast<int>();
-    if ((hi.array() < lo.array()).any()) return false;
+    const Eigen::Vector3f cf = (center * inverse_cell_).array().floor();
+    if (!cf.allFinite() || (cf.array() < (min_cell_.cast<float>().array() - 1.0f - radius * inverse_cell_)).any() ||
+        (cf.array() > (max_cell_.cast<float>().array() + 1.0f + radius * inverse_cell_)).any())
+        return false;  // farther than the radius from every cell
+    const Eigen::Vector3i c = cf.cast<int>();
     bool found = false;
-    for (int z = lo.z(); z <= hi.z(); ++z) {
-        for (int y = lo.y(); y <= hi.y(); ++y) {
-            std::uint32_t begin = 0, end = 0;
-            if (!row_range(y, z, lo.x(), hi.x(), begin, end)) continue;
-            for (std::uint32_t i = begin; i < end; ++i) {
-                const float d2 = squared_distance(ordered_points_[i], center);
+    float best = radius2;
+    auto consider = [&](std::uint32_t begin, std::uint32_t end) {
+        for (std::uint32_t i = begin; i < end; ++i) {
+            const float d2 = squared_distance(ordered_points_[i], center);
+            if (d2 < best || (found && d2 == best && ordered_indices_[i] < index)) {
                 if (!(d2 < radius2)) continue;
-                if (!found || d2 < squared_distance_out || (d2 == squared_distance_out && ordered_indices_[i] < index)) {
-                    found = true;
-                    squared_distance_out = d2;
-                    index = ordered_indices_[i];
+                found = true;
+                best = d2;
+                index = ordered_indices_[i];
+            }
+        }
+    };
+    // Shells outward from the centre's cell, as knn_search, until the nearest point found is closer
+    // than anything outside the block, or the block holds the whole radius.
+    const int max_ring = int(std::ceil(radius * inverse_cell_)) + 1;
+    for (int ring = 0; ring <= max_ring; ++ring) {
+        for (int z = c.z() - ring; z <= c.z() + ring; ++z) {
+            const bool z_face = std::abs(z - c.z()) == ring;
+            for (int y = c.y() - ring; y <= c.y() + ring; ++y) {
+                std::uint32_t begin = 0, end = 0;
+                if (z_face || std::abs(y - c.y()) == ring) {
+                    if (row_range(y, z, c.x() - ring, c.x() + ring, begin, end)) consider(begin, end);
+                } else {
+                    if (row_range(y, z, c.x() - ring, c.x() - ring, begin, end)) consider(begin, end);
+                    if (ring > 0 && row_range(y, z, c.x() + ring, c.x() + ring, begin, end)) consider(begin, end);
                 }
             }
         }
+        const Eigen::Vector3f block_lo = (c.array() - ring).cast<float>() * cell_size_;
+        const Eigen::Vector3f block_hi = (c.array() + ring + 1).cast<float>() * cell_size_;
+        const float margin = std::min((center - block_lo).minCoeff(), (block_hi - center).minCoeff()) -
+                             1e-5f * (center.cwiseAbs().maxCoeff() + cell_size_);
+        if (margin > 0.0f && (best < margin * margin || radius <= margin)) break;
     }
+    if (found) squared_distance_out = best;
     return found;
 }
 

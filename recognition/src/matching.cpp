@@ -31,8 +31,8 @@ std::vector<Correspondence> match_descriptors(const Features& model, const Featu
     if (params.exact) {
         index = std::make_unique<flann::Index<flann::L2<float>>>(data, flann::KDTreeSingleIndexParams(15));
     } else {
-        // Randomized trees draw from FLANN's generator: seeding it makes the trees, and so the
-        // matches, the same on every run.
+        // Seeding fixes FLANN's split choices; its input shuffle uses std::random_device, so
+        // approximate matches can still differ from run to run (the README says so).
         flann::seed_random(1);
         index = std::make_unique<flann::Index<flann::L2<float>>>(data, flann::KDTreeIndexParams(params.trees));
     }

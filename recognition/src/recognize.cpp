@@ -74,7 +74,9 @@ RecognitionResult recognize(const Model& model, const PointCloud& scene, const R
         t = Clock::now();
         // Verification looks at the whole scene, whatever foveation kept: it asks whether the
         // sensor saw the model there.
-        const NeighborGrid grid(scene.points, std::max(params.refine.max_distance, params.verify.inlier_distance));
+        // Cells of a few sensor spacings: nearest-point queries near the surface stop after the
+        // first shell.
+        const NeighborGrid grid(scene.points, 0.005f);
         const SceneEvidence evidence = make_scene_evidence(scene, grid);
         result.instances = refine_and_verify(std::move(result.instances), model.points, model.normals, evidence,
                                              params.refine, params.verify);

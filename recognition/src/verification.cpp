@@ -15,21 +15,6 @@
 namespace mfpc {
 namespace {
 
-// Nearest scene point within `radius` of p; NaN distance when none.
-float nearest_distance2(const NeighborGrid& grid, const Point& p, float radius, std::uint32_t& nearest,
-                        std::vector<std::uint32_t>& indices, std::vector<float>& distances)
-{
-    grid.radius_search(p, radius, indices, distances);
-    float best = std::numeric_limits<float>::quiet_NaN();
-    for (std::size_t i = 0; i < indices.size(); ++i) {
-        if (std::isnan(best) || distances[i] < best || (distances[i] == best && indices[i] < nearest)) {
-            best = distances[i];
-            nearest = indices[i];
-        }
-    }
-    return best;
-}
-
 struct Fit {
     Pose pose;
     float rmse = 0.0f;
@@ -38,8 +23,6 @@ struct Fit {
 Fit icp(const Pose& start, std::span<const Point> model, const SceneEvidence& scene, const RefineParams& params)
 {
     Fit fit{start, 0.0f};
-    std::vector<std::uint32_t> indices;
-    std::vector<float> distances;
     std::vector<Point> from, to;
     for (int it = 0; it < params.iterations; ++it) {
         from.clear();
@@ -48,8 +31,8 @@ Fit icp(const Pose& start, std::span<const Point> model, const SceneEvidence& sc
         for (const Point& m : model) {
             const Point moved = fit.pose * m;
             std::uint32_t nearest = 0;
-            const float d2 = nearest_distance2(*scene.grid, moved, params.max_distance, nearest, indices, distances);
-            if (std::isnan(d2)) continue;
+            float d2 = 0.0f;
+            if (!scene.grid->nearest(moved, params.max_distance, nearest, d2)) continue;
             from.push_back(moved);
             to.push_back(scene.points[nearest]);
             squared_sum += d2;
@@ -142,16 +125,30 @@ std::vector<Instance> refine_and_verify(std::vector<Instance> instances, std::sp
 
     tbb::parallel_for(std::size_t(0), instances.size(), [&](std::size_t n) {
         Instance& instance = instances[n];
+        // A hypothesis that explains less than three quarters of the coverage asked for, even with
+        // the looser ICP distance, will not make it: reject it before paying for ICP (most Hough
+        // maxima in clutter are such; true ones start within a centimetre).
+        if (verify.enabled) {
+            std::size_t near = 0;
+            const float radius = std::max(refine.max_distance, verify.inlier_distance);
+            for (const Point& p : points) {
+                std::uint32_t nearest = 0;
+                float d2 = 0.0f;
+                if (scene.grid->nearest(instance.transform * p, radius, nearest, d2)) ++near;
+            }
+            if (float(near) < 0.75f * verify.min_coverage * float(points.size())) {
+                instance.fitness = 0.0f;
+                instance.coverage = 0.0f;
+                return;
+            }
+        }
         if (refine.enabled) {
             const Fit fit = icp(instance.transform, points, scene, refine);
             instance.transform = fit.pose;
             instance.rmse = fit.rmse;
         }
         if (!verify.enabled) return;
-        std::vector<std::uint32_t> indices;
-        std::vector<float> distances;
         std::size_t facing = 0, inliers = 0, projected = 0, violations = 0;
-        const float inlier2 = verify.inlier_distance * verify.inlier_distance;
         for (std::size_t i = 0; i < points.size(); ++i) {
             const Point p = instance.transform * points[i];
             // Free space, for every model point whichever way its surface faces: a solid object
@@ -177,8 +174,8 @@ std::vector<Instance> refine_and_verify(std::vector<Instance> instances, std::sp
             if (normal.dot(-p) <= 0.0f) continue;
             ++facing;
             std::uint32_t nearest = 0;
-            const float d2 = nearest_distance2(*scene.grid, p, verify.inlier_distance, nearest, indices, distances);
-            if (!std::isnan(d2) && d2 <= inlier2) ++inliers;
+            float d2 = 0.0f;
+            if (scene.grid->nearest(p, verify.inlier_distance, nearest, d2)) ++inliers;
         }
         instance.fitness = facing ? float(inliers) / float(facing) : 0.0f;
         instance.coverage = points.empty() ? 0.0f : float(inliers) / float(points.size());

@@ -66,6 +66,38 @@ TEST(NeighborGrid, KnnSearchMatchesBruteForceIncludingTies)
     }
 }
 
+TEST(NeighborGrid, NearestWithinRadiusMatchesBruteForce)
+{
+    const auto points = test::random_points(5000, 13);
+    std::mt19937 rng(4);
+    std::uniform_real_distribution<float> coordinate(-1.5f, 1.5f);
+    for (float cell : {0.02f, 0.1f}) {
+        const NeighborGrid grid(points, cell);
+        for (int q = 0; q < 300; ++q) {
+            const Point center(coordinate(rng), coordinate(rng), coordinate(rng));
+            const float radius = 0.01f + 0.05f * float(q % 5);
+            std::uint32_t expected = 0;
+            float expected_d2 = radius * radius;
+            bool expected_found = false;
+            for (std::uint32_t i = 0; i < points.size(); ++i) {
+                const float d2 = brute_distance(points[i], center);
+                if (d2 < expected_d2) {
+                    expected_found = true;
+                    expected_d2 = d2;
+                    expected = i;
+                }
+            }
+            std::uint32_t index = 0;
+            float d2 = 0.0f;
+            ASSERT_EQ(grid.nearest(center, radius, index, d2), expected_found) << q;
+            if (expected_found) {
+                EXPECT_EQ(index, expected);
+                EXPECT_EQ(d2, expected_d2);
+            }
+        }
+    }
+}
+
 TEST(NeighborGrid, FewerPointsThanKAndFarQueries)
 {
     const std::vector<Point> points = {Point(0, 0, 0), Point(1, 0, 0), Point(0, 2, 0)};

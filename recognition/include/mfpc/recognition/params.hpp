@@ -31,7 +31,9 @@ struct MatchParams {
     MatchDirection direction = MatchDirection::model_to_scene;
     int k = 10;                     // neighbours per query in model_to_scene
     float threshold = 0.25f;        // d_max^2: squared descriptor distance accepted
-    bool exact = true;              // exact kd-tree; false: randomized kd-trees
+    // true: exact kd-tree. false: FLANN's randomized kd-trees, faster but not reproducible: FLANN
+    // 1.9 shuffles their input with std::random_device, which no seed reaches.
+    bool exact = true;
     int trees = 4;                  // randomized kd-trees (approximate)
     int checks = 256;               // leaves visited per query (approximate)
 };
@@ -48,7 +50,7 @@ struct GroupingParams {
 
 struct RefineParams {
     bool enabled = true;            // ICP of each instance onto the scene
-    int iterations = 30;
+    int iterations = 20;
     float max_distance = 0.01f;     // pairs farther than this are ignored (metres)
     float model_voxel = 0.004f;     // the model is thinned to one point per voxel first (0: not)
 };
