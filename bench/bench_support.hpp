@@ -26,6 +26,7 @@ public:
                 std::string name = run.run_name.function_name;
                 if (!run.run_name.args.empty()) name += "/" + run.run_name.args;
                 times_ms_[name] = run.GetAdjustedRealTime() * to_ms(run.time_unit);
+                for (const auto& [key, counter] : run.counters) counters_[name][key] = counter.value;
             }
         }
         ConsoleReporter::ReportRuns(runs);
@@ -36,6 +37,16 @@ public:
     {
         const auto it = times_ms_.find(name);
         return it == times_ms_.end() ? -1.0 : it->second;
+    }
+
+    // A user counter of a benchmark (the median over the repetitions, as Google Benchmark
+    // aggregates counters), or a negative number when it did not run or has no such counter.
+    double counter(const std::string& name, const std::string& key) const
+    {
+        const auto it = counters_.find(name);
+        if (it == counters_.end()) return -1.0;
+        const auto value = it->second.find(key);
+        return value == it->second.end() ? -1.0 : value->second;
     }
 
     void print_ratio(const std::string& label, const std::string& baseline, const std::string& ours) const
@@ -61,6 +72,7 @@ private:
         return 1.0;
     }
     std::map<std::string, double> times_ms_;
+    std::map<std::string, std::map<std::string, double>> counters_;
 };
 
 }  // namespace mfpc::bench

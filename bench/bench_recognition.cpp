@@ -1,0 +1,579 @@
+// Recognition benchmarks (issue: recognition pipeline): PCL 1.13's correspondence-grouping pipeline
+// (the PCL tutorial "3D Object Recognition based on Correspondence Grouping", step for step) against
+// ours (mfpc::recognize), on the same finite points of the same scene, at the same thread count, in
+// this process. Printed after the runs, per scene and thread count, from the medians of the
+// repetitions:
+//  - end to end (scene side): PCL / ours plain (defaults: refine and verify on), PCL / ours
+//    like-for-like (refine and verify off; PCL has neither), PCL / ours tutorial-matching (also
+//    scene-to-model nearest neighbour, as PCL), and PCL plain / ours mfpc (foveated scene);
+//  - per stage: normals, keypoints, descriptors, lrf, match, group (and ours' foveate, verify);
+//  - the model side (prepared once, outside the timed loops), PCL / ours;
+//  - counts (keypoints, correspondences) and the instances each pipeline found, with the
+//    translation of each and its distance to the nearest ground-truth instance.
+// Thread counts: ours under tbb::global_control, PCL's OMP classes (normals, SHOT) with
+// setNumberOfThreads; the rest of PCL's pipeline (uniform sampling, BOARD, matching loop, Hough) is
+// serial, as in the tutorial.
+// Run: build/release/bench/bench_recognition [--benchmark_repetitions=N] [--benchmark_filter=...]
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <filesystem>
+#include <map>
+#include <memory>
+#include <string>
+#include <utility>
+#include <vector>
+
+#include <pcl/correspondence.h>
+#include <pcl/features/board.h>
+#include <pcl/features/normal_3d_omp.h>
+#include <pcl/features/shot_omp.h>
+#include <pcl/filters/uniform_sampling.h>
+#include <pcl/kdtree/kdtree_flann.h>
+#include <pcl/point_cloud.h>
+#include <pcl/point_types.h>
+#include <pcl/recognition/cg/hough_3d.h>
+#include <tbb/global_control.h>
+
+#include "bench_support.hpp"
+#include "mfpc/core/cloud_io.hpp"
+#include "mfpc/core/foveation_config.hpp"
+#include "mfpc/core/pcl_adapter.hpp"
+#include "mfpc/core/pose.hpp"
+#include "mfpc/recognition/ground_truth.hpp"
+#include "mfpc/recognition/model.hpp"
+#include "mfpc/recognition/recognize.hpp"
+#include "shared_data.hpp"
+
+namespace mfpc {
+namespace {
+
+using PclPoint = pcl::PointXYZ;
+using PclNormal = pcl::Normal;
+using PclDescriptor = pcl::SHOT352;
+using PclFrame = pcl::ReferenceFrame;
+using Clock = std::chrono::steady_clock;
+
+double elapsed_ms(Clock::time_point since)
+{
+    return std::chrono::duration<double, std::milli>(Clock::now() - since).count();
+}
+
+// ---------------------------------------------------------------------------------------------
+// PCL's pipeline, as the tutorial writes it (geometry only: PointXYZ instead of PointXYZRGBA).
+
+struct PclParams {
+    int normal_k = 10;
+    float model_sampling = 0.01f;
+    float scene_sampling = 0.03f;
+    float shot_radius = 0.02f;
+    float lrf_radius = 0.015f;
+    float match_threshold = 0.25f;  // squared SHOT distance
+    float hough_bin = 0.01f;
+    float hough_threshold = 5.0f;
+};
+
+struct PclStageTimes {
+    double normals = 0, keypoints = 0, descriptors = 0, lrf = 0, match = 0, group = 0;
+};
+
+// One cloud's features: normals of every point, uniform-sampling keypoints, SHOT over the full
+// cloud (SHOT's own frames), BOARD frames of the keypoints (for Hough).
+struct PclFeatures {
+    pcl::PointCloud<PclNormal>::Ptr normals{new pcl::PointCloud<PclNormal>};
+    pcl::PointCloud<PclPoint>::Ptr keypoints{new pcl::PointCloud<PclPoint>};
+    pcl::PointCloud<PclDescriptor>::Ptr descriptors{new pcl::PointCloud<PclDescriptor>};
+    pcl::PointCloud<PclFrame>::Ptr frames{new pcl::PointCloud<PclFrame>};
+};
+
+PclFeatures pcl_features(const pcl::PointCloud<PclPoint>::ConstPtr& cloud, float sampling, const PclParams& params,
+                         int threads, PclStageTimes& times)
+{
+    PclFeatures out;
+    auto t = Clock::now();
+    pcl::NormalEstimationOMP<PclPoint, PclNormal> normals;
+    normals.setNumberOfThreads(unsigned(threads));
+    normals.setKSearch(params.normal_k);
+    normals.setInputCloud(cloud);
+    normals.compute(*out.normals);
+    times.normals += elapsed_ms(t);
+
+    t = Clock::now();
+    pcl::UniformSampling<PclPoint> sampling_filter;
+    sampling_filter.setInputCloud(cloud);
+    sampling_filter.setRadiusSearch(sampling);
+    sampling_filter.filter(*out.keypoints);
+    times.keypoints += elapsed_ms(t);
+
+    t = Clock::now();
+    pcl::SHOTEstimationOMP<PclPoint, PclNormal, PclDescriptor> shot;
+    shot.setNumberOfThreads(unsigned(threads));
+    shot.setRadiusSearch(params.shot_radius);
+    shot.setInputCloud(out.keypoints);
+    shot.setInputNormals(out.normals);
+    shot.setSearchSurface(cloud);
+    shot.compute(*out.descriptors);
+    times.descriptors += elapsed_ms(t);
+
+    t = Clock::now();
+    pcl::BOARDLocalReferenceFrameEstimation<PclPoint, PclNormal, PclFrame> board;
+    board.setFindHoles(true);
+    board.setRadiusSearch(params.lrf_radius);
+    board.setInputCloud(out.keypoints);
+    board.setInputNormals(out.normals);
+    board.setSearchSurface(cloud);
+    board.compute(*out.frames);
+    times.lrf += elapsed_ms(t);
+    return out;
+}
+
+struct PclResult {
+    PclFeatures scene;
+    pcl::CorrespondencesPtr correspondences{new pcl::Correspondences};
+    std::vector<Eigen::Matrix4f, Eigen::aligned_allocator<Eigen::Matrix4f>> poses;
+    std::vector<pcl::Correspondences> clustered;
+    PclStageTimes times;
+};
+
+PclResult pcl_recognize(const PclFeatures& model, const pcl::PointCloud<PclPoint>::ConstPtr& scene,
+                        const PclParams& params, int threads)
+{
+    PclResult out;
+    out.scene = pcl_features(scene, params.scene_sampling, params, threads, out.times);
+
+    // The tutorial's matching: a kd-tree over the model descriptors (built here, as the tutorial
+    // does, and as ours builds its tree per call), each finite scene descriptor's nearest neighbour.
+    auto t = Clock::now();
+    pcl::KdTreeFLANN<PclDescriptor> match_search;
+    match_search.setInputCloud(model.descriptors);
+    std::vector<int> index(1);
+    std::vector<float> distance(1);
+    for (std::size_t i = 0; i < out.scene.descriptors->size(); ++i) {
+        const PclDescriptor& d = (*out.scene.descriptors)[i];
+        if (!std::isfinite(d.descriptor[0])) continue;  // skipping NaNs
+        const int found = match_search.nearestKSearch(d, 1, index, distance);
+        if (found == 1 && distance[0] < params.match_threshold) {
+            out.correspondences->push_back(pcl::Correspondence(index[0], int(i), distance[0]));
+        }
+    }
+    out.times.match = elapsed_ms(t);
+
+    t = Clock::now();
+    pcl::Hough3DGrouping<PclPoint, PclPoint, PclFrame, PclFrame> clusterer;
+    clusterer.setHoughBinSize(params.hough_bin);
+    clusterer.setHoughThreshold(params.hough_threshold);
+    clusterer.setUseInterpolation(true);
+    clusterer.setUseDistanceWeight(false);
+    clusterer.setInputCloud(model.keypoints);
+    clusterer.setInputRf(model.frames);
+    clusterer.setSceneCloud(out.scene.keypoints);
+    clusterer.setSceneRf(out.scene.frames);
+    clusterer.setModelSceneCorrespondences(out.correspondences);
+    clusterer.recognize(out.poses, out.clustered);
+    out.times.group = elapsed_ms(t);
+    return out;
+}
+
+template <class Cloud> std::size_t count_finite_descriptors(const Cloud& descriptors)
+{
+    return std::size_t(std::count_if(descriptors.begin(), descriptors.end(),
+                                     [](const PclDescriptor& d) { return std::isfinite(d.descriptor[0]); }));
+}
+
+std::size_t count_finite_frames(const pcl::PointCloud<PclFrame>& frames)
+{
+    return std::size_t(std::count_if(frames.begin(), frames.end(), [](const PclFrame& f) {
+        return std::isfinite(f.x_axis[0]) && std::isfinite(f.y_axis[0]) && std::isfinite(f.z_axis[0]);
+    }));
+}
+
+// ---------------------------------------------------------------------------------------------
+// Inputs, loaded once.
+
+struct Scene {
+    std::string name;
+    PointCloud cloud;
+    pcl::PointCloud<PclPoint>::Ptr pcl_cloud;
+    FoveationConfig config;
+    std::string config_name;
+    GroundTruth truth;
+};
+
+struct Inputs {
+    PointCloud model_cloud;
+    pcl::PointCloud<PclPoint>::Ptr pcl_model;
+    Model model;          // ours, prepared once, with the built-in defaults
+    RecognitionParams tutorial;  // examples/params/pcl_tutorial.json: PCL's parameters, no verification
+    Model tutorial_model;        // ours, prepared once with the tutorial's model parameters
+    PclFeatures pcl_model_features;  // PCL's, prepared once
+    std::vector<Scene> scenes;
+};
+
+const Inputs* inputs()
+{
+    static std::unique_ptr<Inputs> loaded = []() -> std::unique_ptr<Inputs> {
+        const auto data = test::shared_data_dir();
+        const auto configs = std::filesystem::path(MFPC_SOURCE_DIR) / "examples/configs";
+        for (const char* file : {"milk.pcd", "milk_cartoon_all_small_clorox.pcd", "milk_pair.pcd"}) {
+            if (!std::filesystem::exists(data / file)) return nullptr;
+        }
+        auto in = std::make_unique<Inputs>();
+        in->model_cloud = read_cloud(data / "milk.pcd");
+        in->pcl_model.reset(new pcl::PointCloud<PclPoint>(to_pcl(in->model_cloud)));
+        in->model = prepare_model(in->model_cloud, RecognitionParams{}.model, "milk.pcd");
+        in->tutorial = read_recognition_params(std::filesystem::path(MFPC_SOURCE_DIR) / "examples/params/pcl_tutorial.json");
+        in->tutorial_model = prepare_model(in->model_cloud, in->tutorial.model, "milk.pcd");
+        PclStageTimes ignored;
+        in->pcl_model_features = pcl_features(in->pcl_model, PclParams{}.model_sampling, PclParams{}, 2, ignored);
+        // milk_carton.json: one structure around the carton; milk_pair_two.json: one per carton
+        // (examples/configs/README.md).
+        const std::pair<const char*, const char*> scenes[] = {{"milk_cartoon_all_small_clorox", "milk_carton.json"},
+                                                              {"milk_pair", "milk_pair_two.json"}};
+        for (const auto& [name, config] : scenes) {
+            Scene s;
+            s.name = name;
+            s.cloud = read_cloud(data / (std::string(name) + ".pcd"));
+            s.pcl_cloud.reset(new pcl::PointCloud<PclPoint>(to_pcl(s.cloud)));
+            s.config = read_foveation_config(configs / config);
+            s.config_name = config;
+            s.truth = read_ground_truth(data / (std::string(name) + ".gt.json"));
+            in->scenes.push_back(std::move(s));
+        }
+        return in;
+    }();
+    return loaded.get();
+}
+
+#define MFPC_REQUIRE_INPUTS(state, var)                                                          \
+    const Inputs* var = inputs();                                                                \
+    if (!var) {                                                                                  \
+        state.SkipWithError("shared data (milk.pcd, milk_cartoon_all_small_clorox.pcd, milk_pair.pcd) is absent"); \
+        return;                                                                                  \
+    }
+
+// ---------------------------------------------------------------------------------------------
+// What each run found, kept from its last iteration for the summary.
+
+struct FoundInstance {
+    Pose pose = Pose::Identity();
+    double votes = -1;               // ours: interpolated Hough votes; PCL does not say (-1)
+    std::size_t correspondences = 0;  // PCL: clustered correspondences; ours: the pose fit's inliers
+};
+
+struct Found {
+    std::vector<std::pair<std::string, std::size_t>> counts;
+    std::vector<FoundInstance> instances;
+};
+
+std::map<std::string, Found>& found_by_run()
+{
+    static std::map<std::string, Found> found;
+    return found;
+}
+
+// ---------------------------------------------------------------------------------------------
+// Benchmarks, one per scene; Arg: threads. Stage times go to counters (per-iteration averages), whose
+// medians over the repetitions the reporter keeps.
+
+// plain: the built-in defaults; tutorial: PCL's own parameters and algorithm choices, without
+// refinement and verification (like for like with PCL); mfpc: the defaults on the foveated scene.
+enum class Variant { plain, tutorial, mfpc };
+constexpr const char* variant_names[] = {"plain", "tutorial", "mfpc"};
+
+void set_stage(benchmark::State& state, const char* stage, double total_ms)
+{
+    state.counters[stage] = benchmark::Counter(total_ms, benchmark::Counter::kAvgIterations);
+}
+
+std::string run_key(const std::string& pipeline, const Scene& scene, int threads)
+{
+    return pipeline + "/" + scene.name + "/threads/" + std::to_string(threads);
+}
+
+void BM_Pcl(benchmark::State& state, int scene_number)
+{
+    MFPC_REQUIRE_INPUTS(state, in);
+    const Scene& scene = in->scenes[std::size_t(scene_number)];
+    const int threads = int(state.range(0));
+    PclStageTimes sum;
+    PclResult last;
+    for (auto _ : state) {
+        last = pcl_recognize(in->pcl_model_features, scene.pcl_cloud, PclParams{}, threads);
+        sum.normals += last.times.normals;
+        sum.keypoints += last.times.keypoints;
+        sum.descriptors += last.times.descriptors;
+        sum.lrf += last.times.lrf;
+        sum.match += last.times.match;
+        sum.group += last.times.group;
+    }
+    set_stage(state, "normals", sum.normals);
+    set_stage(state, "keypoints", sum.keypoints);
+    set_stage(state, "descriptors", sum.descriptors);
+    set_stage(state, "lrf", sum.lrf);
+    set_stage(state, "match", sum.match);
+    set_stage(state, "group", sum.group);
+
+    Found found;
+    found.counts = {{"scene points", scene.pcl_cloud->size()},
+                    {"keypoints (uniform sampling)", last.scene.keypoints->size()},
+                    {"keypoints with finite SHOT", count_finite_descriptors(*last.scene.descriptors)},
+                    {"keypoints with finite BOARD frame", count_finite_frames(*last.scene.frames)},
+                    {"correspondences", last.correspondences->size()}};
+    for (std::size_t i = 0; i < last.poses.size(); ++i) {
+        FoundInstance f;
+        f.pose.matrix() = last.poses[i];
+        f.correspondences = last.clustered[i].size();
+        found.instances.push_back(f);
+    }
+    found_by_run()[run_key("pcl", scene, threads)] = std::move(found);
+}
+
+void BM_Ours(benchmark::State& state, Variant variant, int scene_number)
+{
+    MFPC_REQUIRE_INPUTS(state, in);
+    const Scene& scene = in->scenes[std::size_t(scene_number)];
+    const int threads = int(state.range(0));
+    tbb::global_control limit(tbb::global_control::max_allowed_parallelism, std::size_t(threads));
+    const RecognitionParams params = variant == Variant::tutorial ? in->tutorial : RecognitionParams{};
+    const Model& model = variant == Variant::tutorial ? in->tutorial_model : in->model;
+    SceneFoveation foveation;
+    if (variant == Variant::mfpc) foveation = SceneFoveation{&scene.config, FoveationMode::mfpc, 0};
+
+    RecognitionTimings sum;
+    RecognitionResult last;
+    for (auto _ : state) {
+        last = recognize(model, scene.cloud, params, foveation);
+        sum.foveate += last.timings.foveate;
+        sum.normals += last.timings.normals;
+        sum.keypoints += last.timings.keypoints;
+        sum.lrf += last.timings.lrf;
+        sum.descriptors += last.timings.descriptors;
+        sum.match += last.timings.match;
+        sum.group += last.timings.group;
+        sum.verify += last.timings.verify;
+    }
+    set_stage(state, "foveate", sum.foveate);
+    set_stage(state, "normals", sum.normals);
+    set_stage(state, "keypoints", sum.keypoints);
+    set_stage(state, "descriptors", sum.descriptors);
+    set_stage(state, "lrf", sum.lrf);
+    set_stage(state, "match", sum.match);
+    set_stage(state, "group", sum.group);
+    set_stage(state, "verify", sum.verify);
+
+    const RecognitionCounts& c = last.counts;
+    Found found;
+    found.counts = {{"scene points", c.scene_points},
+                    {"scene points used (after foveation)", c.scene_points_used},
+                    {"keypoints (uniform sampling)", c.scene_keypoints + c.scene_keypoints_invalid},
+                    {"keypoints with valid SHOT and BOARD", c.scene_keypoints},
+                    {"correspondences", c.correspondences},
+                    {"instances before verification", c.instances_before_verification}};
+    for (const Instance& instance : last.instances) {
+        found.instances.push_back(FoundInstance{instance.transform, double(instance.votes), instance.correspondences.size()});
+    }
+    found_by_run()[run_key(std::string("ours_") + variant_names[int(variant)], scene, threads)] = std::move(found);
+}
+
+void BM_ModelPcl(benchmark::State& state)
+{
+    MFPC_REQUIRE_INPUTS(state, in);
+    PclStageTimes ignored;
+    for (auto _ : state) {
+        PclFeatures f = pcl_features(in->pcl_model, PclParams{}.model_sampling, PclParams{}, int(state.range(0)), ignored);
+        benchmark::DoNotOptimize(f.descriptors->data());
+    }
+}
+
+void BM_ModelOurs(benchmark::State& state)
+{
+    MFPC_REQUIRE_INPUTS(state, in);
+    tbb::global_control limit(tbb::global_control::max_allowed_parallelism, std::size_t(state.range(0)));
+    for (auto _ : state) {
+        Model m = prepare_model(in->model_cloud, RecognitionParams{}.model, "milk.pcd");
+        benchmark::DoNotOptimize(m.features.descriptors.data());
+    }
+}
+
+const int thread_counts[] = {1, 2};
+const char* scene_names[] = {"milk_cartoon_all_small_clorox", "milk_pair"};
+
+void configure(benchmark::internal::Benchmark* b, int iterations)
+{
+    b->Unit(benchmark::kMillisecond)->UseRealTime()->Iterations(iterations);
+}
+
+void register_all()
+{
+    for (int t : thread_counts) {
+        configure(benchmark::RegisterBenchmark("Model/pcl/threads", BM_ModelPcl)->Arg(t), 2);
+        configure(benchmark::RegisterBenchmark("Model/ours/threads", BM_ModelOurs)->Arg(t), 2);
+        for (int s = 0; s < 2; ++s) {
+            const std::string scene = scene_names[s];
+            configure(benchmark::RegisterBenchmark(("Scene/pcl/" + scene + "/threads").c_str(), BM_Pcl, s)->Arg(t), 1);
+            for (Variant v : {Variant::plain, Variant::tutorial, Variant::mfpc}) {
+                const std::string name = "Scene/ours_" + std::string(variant_names[int(v)]) + "/" + scene + "/threads";
+                configure(benchmark::RegisterBenchmark(name.c_str(), BM_Ours, v, s)->Arg(t), 1);
+            }
+        }
+    }
+}
+
+// ---------------------------------------------------------------------------------------------
+// Summary.
+
+std::string bench_name(const std::string& pipeline, int scene, int threads)
+{
+    return "Scene/" + pipeline + "/" + scene_names[scene] + "/threads/" + std::to_string(threads);
+}
+
+void print_stage_row(const bench::RecordingReporter& r, const char* label, const std::string& pcl_name,
+                     const char* pcl_stage, const std::vector<std::string>& ours_names, const char* ours_stage)
+{
+    const double p = pcl_stage ? r.counter(pcl_name, pcl_stage) : -1.0;
+    std::printf("  %-12s", label);
+    if (p >= 0) {
+        std::printf(" %9.2f", p);
+    } else {
+        std::printf(" %9s", "-");
+    }
+    for (const std::string& ours : ours_names) {
+        const double o = ours_stage ? r.counter(ours, ours_stage) : -1.0;
+        if (o < 0) {
+            std::printf(" %9s %8s", "-", "");
+        } else if (p >= 0 && o > 0) {
+            std::printf(" %9.2f %7.2fx", o, p / o);
+        } else {
+            std::printf(" %9.2f %8s", o, "");
+        }
+    }
+    std::printf("\n");
+}
+
+void print_found(const std::string& label, const std::string& key, const GroundTruth& truth)
+{
+    const auto it = found_by_run().find(key);
+    if (it == found_by_run().end()) {
+        std::printf("  %-16s (not run)\n", label.c_str());
+        return;
+    }
+    const Found& f = it->second;
+    std::printf("  %-16s", label.c_str());
+    for (const auto& [name, count] : f.counts) std::printf(" %s %zu;", name.c_str(), count);
+    std::printf("\n  %-16s %zu instance(s)\n", "", f.instances.size());
+    for (const FoundInstance& instance : f.instances) {
+        const Eigen::Vector3f t = instance.pose.translation();
+        int nearest = -1;
+        float dt = 0, dr = 0;
+        for (std::size_t g = 0; g < truth.instances.size(); ++g) {
+            const float e = translation_error(instance.pose, truth.instances[g].transform);
+            if (nearest < 0 || e < dt) {
+                nearest = int(g);
+                dt = e;
+                dr = rotation_error_deg(instance.pose, truth.instances[g].transform);
+            }
+        }
+        std::printf("  %-16s   t = (%7.4f, %7.4f, %7.4f)  %3zu corr  ", "", t.x(), t.y(), t.z(), instance.correspondences);
+        if (instance.votes >= 0) {
+            std::printf("votes %5.1f", instance.votes);
+        } else {
+            std::printf("%11s", "");
+        }
+        std::printf("  nearest truth #%d: %5.1f mm, %5.1f deg\n", nearest, 1000.0f * dt, dr);
+    }
+}
+
+bool same_instances(const Found& a, const Found& b)
+{
+    if (a.instances.size() != b.instances.size()) return false;
+    for (std::size_t i = 0; i < a.instances.size(); ++i) {
+        if (translation_error(a.instances[i].pose, b.instances[i].pose) > 1e-4f) return false;
+    }
+    return true;
+}
+
+void print_summary(const bench::RecordingReporter& r, const Inputs& in)
+{
+    std::printf("\n== recognition: ratios of medians, PCL (correspondence-grouping tutorial) / ours ==\n");
+    std::printf("ours plain: built-in defaults (larger supports, model-to-scene k=10 matching, refine + verify);\n"
+                "tutorial: PCL's parameters (examples/params/pcl_tutorial.json), no refine/verify: like for like;\n"
+                "mfpc: built-in defaults on the foveated scene\n"
+                "stages: PCL normals are of every scene point; ours of the points in some keypoint's support, and\n"
+                "include building the neighbour grids that lrf and descriptors use (PCL builds its kd-trees inside each\n"
+                "stage). Both match stages build their kd-tree. Only PCL's normals and descriptors use the 2nd thread.\n");
+    for (int t : thread_counts) {
+        const std::string ts = std::to_string(t);
+        std::printf("\n-- %d thread(s) --\n", t);
+        r.print_ratio("model side (prepared once): PCL / ours", "Model/pcl/threads/" + ts, "Model/ours/threads/" + ts);
+        for (int s = 0; s < 2; ++s) {
+            const std::string pcl = bench_name("pcl", s, t);
+            std::printf("%s (mfpc config %s):\n", scene_names[s], in.scenes[std::size_t(s)].config_name.c_str());
+            r.print_ratio("  end to end: PCL / ours tutorial (like for like)", pcl, bench_name("ours_tutorial", s, t));
+            r.print_ratio("  end to end: PCL / ours plain (defaults)", pcl, bench_name("ours_plain", s, t));
+            r.print_ratio("  end to end: PCL plain / ours mfpc (defaults)", pcl, bench_name("ours_mfpc", s, t));
+            const std::vector<std::string> ours = {bench_name("ours_tutorial", s, t), bench_name("ours_plain", s, t),
+                                                   bench_name("ours_mfpc", s, t)};
+            std::printf("  %-12s %9s %9s %8s %9s %8s %9s %8s\n", "stage (ms)", "PCL", "tutorial", "PCL/tut",
+                        "plain", "PCL/pl", "mfpc", "PCL/mfpc");
+            print_stage_row(r, "foveate", pcl, nullptr, ours, "foveate");
+            print_stage_row(r, "normals", pcl, "normals", ours, "normals");
+            print_stage_row(r, "keypoints", pcl, "keypoints", ours, "keypoints");
+            print_stage_row(r, "descriptors", pcl, "descriptors", ours, "descriptors");
+            print_stage_row(r, "lrf", pcl, "lrf", ours, "lrf");
+            print_stage_row(r, "match", pcl, "match", ours, "match");
+            print_stage_row(r, "group", pcl, "group", ours, "group");
+            print_stage_row(r, "verify", pcl, nullptr, ours, "verify");
+        }
+    }
+
+    std::printf("\n== what each found (last iteration; 1 thread, with a note where 2 threads differ) ==\n");
+    std::printf("model: PCL %zu keypoints (%zu with finite SHOT, %zu with finite BOARD); ours %zu valid of %zu\n",
+                in.pcl_model_features.keypoints->size(), count_finite_descriptors(*in.pcl_model_features.descriptors),
+                count_finite_frames(*in.pcl_model_features.frames), in.model.features.size(),
+                in.model.features.candidates);
+    for (int s = 0; s < 2; ++s) {
+        const Scene& scene = in.scenes[std::size_t(s)];
+        std::printf("%s: ground truth %zu instance(s)\n", scene.name.c_str(), scene.truth.instances.size());
+        for (const char* pipeline : {"pcl", "ours_tutorial", "ours_plain", "ours_mfpc"}) {
+            print_found(pipeline, run_key(pipeline, scene, thread_counts[0]), scene.truth);
+            const auto one = found_by_run().find(run_key(pipeline, scene, thread_counts[0]));
+            const auto two = found_by_run().find(run_key(pipeline, scene, thread_counts[1]));
+            if (one != found_by_run().end() && two != found_by_run().end() && !same_instances(one->second, two->second)) {
+                std::printf("  %-16s NOTE: instances differ at %d threads:\n", "", thread_counts[1]);
+                print_found(std::string(pipeline) + " x" + std::to_string(thread_counts[1]),
+                            run_key(pipeline, scene, thread_counts[1]), scene.truth);
+            }
+        }
+    }
+}
+
+}  // namespace
+}  // namespace mfpc
+
+int main(int argc, char** argv)
+{
+    // Defaults ahead of the user's flags (later flags win): 3 repetitions (about 2 minutes on 2
+    // idle cores), aggregates only, and
+    // interleaved repetitions so slow drifts of a shared machine hit PCL and ours alike.
+    std::vector<char*> args(argv, argv + argc);
+    std::string interleave = "--benchmark_enable_random_interleaving=true";
+    std::string repetitions = "--benchmark_repetitions=3";
+    std::string aggregates = "--benchmark_report_aggregates_only=true";
+    args.insert(args.begin() + 1, {interleave.data(), repetitions.data(), aggregates.data()});
+    argc = int(args.size());
+    argv = args.data();
+    benchmark::Initialize(&argc, argv);
+    const mfpc::Inputs* in = mfpc::inputs();
+    mfpc::register_all();
+    mfpc::bench::RecordingReporter reporter;
+    benchmark::RunSpecifiedBenchmarks(&reporter);
+    if (in) {
+        mfpc::print_summary(reporter, *in);
+    } else {
+        std::printf("shared data absent under %s: nothing measured\n", mfpc::test::shared_data_dir().c_str());
+    }
+    benchmark::Shutdown();
+    return 0;
+}
