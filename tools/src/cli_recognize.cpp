@@ -139,6 +139,8 @@ void run_recognize(const RecognizeOptions& options, const GlobalOptions& global)
 
     const SceneFoveation foveation{options.fovea.empty() ? nullptr : &config, mode, single_structure};
     const RecognitionResult result = recognize(model, scene, params, foveation);
+    if (foveation.config != nullptr && mode != FoveationMode::none && result.counts.scene_points_used == 0)
+        warn("no point of the scene lies inside any structure of " + options.fovea + ": nothing to recognise");
     const std::optional<Evaluation> evaluation =
         truth ? std::optional<Evaluation>(evaluate(result, model, *truth)) : std::nullopt;
 
