@@ -15,7 +15,7 @@
 namespace mfpc {
 
 void estimate_normals(std::span<const Point> queries, const NeighborGrid& surface, const NormalParams& params,
-                      std::span<Point> normals)
+                      std::span<Point> normals, const OrganizedNeighbors* organized)
 {
     if (normals.size() != queries.size())
         throw Error("estimate_normals", "normals has " + std::to_string(normals.size()) + " entries for " +
@@ -37,9 +37,12 @@ void estimate_normals(std::span<const Point> queries, const NeighborGrid& surfac
     std::vector<float> squared_distances(neighbours.size());
     for (std::size_t offset = 0; offset < queries.size(); offset += batch) {
         const std::size_t count = std::min(batch, queries.size() - offset);
-        surface.knn_search_batch(queries.subspan(offset, count), int(k),
-                                 std::span<std::uint32_t>(neighbours).first(count * k),
-                                 std::span<float>(squared_distances).first(count * k));
+        const auto batch_indices = std::span<std::uint32_t>(neighbours).first(count * k);
+        const auto batch_distances = std::span<float>(squared_distances).first(count * k);
+        if (organized != nullptr)
+            organized->knn_search_batch(queries.subspan(offset, count), int(k), surface, batch_indices, batch_distances);
+        else
+            surface.knn_search_batch(queries.subspan(offset, count), int(k), batch_indices, batch_distances);
         tbb::parallel_for(tbb::blocked_range<std::size_t>(0, count, 1024), [&](const auto& range) {
             for (std::size_t i = range.begin(); i < range.end(); ++i) {
                 const std::uint32_t* own = neighbours.data() + i * k;

@@ -34,7 +34,8 @@ std::span<const float> Features::descriptor(std::size_t i) const
 }
 
 Features describe_keypoints(std::span<const Point> surface, std::span<const std::uint32_t> keypoints,
-                            std::span<const Point> normal_source, const FeatureParams& params, FeatureTimings* timings)
+                            std::span<const Point> normal_source, const FeatureParams& params, FeatureTimings* timings,
+                            const OrganizedNeighbors* organized)
 {
     if (!(params.lrf_radius > 0.0f) || !(params.shot_radius > 0.0f))
         throw Error("describe_keypoints", "the LRF and SHOT radii must be positive");
@@ -71,7 +72,8 @@ Features describe_keypoints(std::span<const Point> surface, std::span<const std:
     std::vector<Point> query_normals(queries.size());
     {
         const NeighborGrid normal_grid(normal_source, knn_cell);
-        estimate_normals(query_points, normal_grid, NormalParams{params.normal_k, Point::Zero()}, query_normals);
+        estimate_normals(query_points, normal_grid, NormalParams{params.normal_k, Point::Zero()}, query_normals,
+                         organized);
     }
     std::vector<Point> normals(surface.size(), Point::Constant(std::numeric_limits<float>::quiet_NaN()));
     for (std::size_t i = 0; i < queries.size(); ++i) normals[queries[i]] = query_normals[i];

@@ -48,47 +48,6 @@ Fit icp(const Pose& start, std::span<const Point> model, const SceneEvidence& sc
 
 }  // namespace
 
-std::optional<Camera> fit_camera(const PointCloud& organized)
-{
-    if (!organized.organized() || organized.size() < 100) return std::nullopt;
-    // u = fx * x / z + cx, v = fy * y / z + cy: two straight-line fits.
-    double sx = 0, su = 0, sxx = 0, sxu = 0, sy = 0, sv = 0, syy = 0, syv = 0;
-    std::size_t n = 0;
-    for (std::size_t i = 0; i < organized.size(); ++i) {
-        const Point& p = organized.points[i];
-        if (!(p.z() > 0.0f)) continue;
-        const std::uint32_t position = organized.source_position(i);
-        const double u = position % organized.width, v = position / organized.width;
-        const double x = p.x() / p.z(), y = p.y() / p.z();
-        sx += x, su += u, sxx += x * x, sxu += x * u;
-        sy += y, sv += v, syy += y * y, syv += y * v;
-        ++n;
-    }
-    if (n < 100) return std::nullopt;
-    const double dn = double(n);
-    const double fx = (dn * sxu - sx * su) / (dn * sxx - sx * sx);
-    const double fy = (dn * syv - sy * sv) / (dn * syy - sy * sy);
-    if (!std::isfinite(fx) || !std::isfinite(fy) || fx <= 0 || fy <= 0) return std::nullopt;
-    Camera camera;
-    camera.fx = float(fx);
-    camera.fy = float(fy);
-    camera.cx = float((su - fx * sx) / dn);
-    camera.cy = float((sv - fy * sy) / dn);
-    camera.width = organized.width;
-    camera.height = organized.height;
-    double error = 0;
-    for (std::size_t i = 0; i < organized.size(); ++i) {
-        const Point& p = organized.points[i];
-        if (!(p.z() > 0.0f)) continue;
-        const std::uint32_t position = organized.source_position(i);
-        const double du = camera.fx * p.x() / p.z() + camera.cx - double(position % organized.width);
-        const double dv = camera.fy * p.y() / p.z() + camera.cy - double(position / organized.width);
-        error += du * du + dv * dv;
-    }
-    if (std::sqrt(error / dn) > 1.0) return std::nullopt;
-    return camera;
-}
-
 SceneEvidence make_scene_evidence(const PointCloud& scene, const NeighborGrid& grid)
 {
     SceneEvidence evidence;

@@ -6,6 +6,7 @@
 #include <vector>
 
 #include "mfpc/core/point_cloud.hpp"
+#include "mfpc/index/organized_neighbors.hpp"
 #include "mfpc/kernels/local_reference_frame.hpp"
 #include "mfpc/recognition/params.hpp"
 
@@ -33,9 +34,10 @@ struct FeatureTimings {
 // Normals, BOARD frames and SHOT descriptors at `keypoints` (indices into surface.points) over
 // the search surface `surface`. Normals are estimated only for the surface points inside some
 // keypoint's support, from their `normal_k` nearest neighbours in `normal_source` (the surface
-// itself, or a denser cloud that contains the same geometry).
+// itself, or a denser cloud that contains the same geometry). When normal_source is an organized
+// cloud, `organized` (built over it) speeds the neighbour search up without changing the result.
 Features describe_keypoints(std::span<const Point> surface, std::span<const std::uint32_t> keypoints,
                             std::span<const Point> normal_source, const FeatureParams& params,
-                            FeatureTimings* timings = nullptr);
+                            FeatureTimings* timings = nullptr, const OrganizedNeighbors* organized = nullptr);
 
 }  // namespace mfpc

@@ -4,26 +4,13 @@
 #include <span>
 #include <vector>
 
+#include "mfpc/core/camera.hpp"
 #include "mfpc/core/point_cloud.hpp"
 #include "mfpc/index/neighbor_grid.hpp"
 #include "mfpc/recognition/grouping.hpp"
 #include "mfpc/recognition/params.hpp"
 
 namespace mfpc {
-
-// A pinhole camera at the origin looking down +z: pixel (u, v) = (fx x / z + cx, fy y / z + cy).
-struct Camera {
-    float fx = 525.0f;
-    float fy = 525.0f;
-    float cx = 319.5f;
-    float cy = 239.5f;
-    std::uint32_t width = 640;
-    std::uint32_t height = 480;
-};
-
-// The camera of an organized cloud, fitted by least squares from its points and their pixels;
-// nothing for an unorganized cloud or one whose points do not fit a pinhole (rms > 1 pixel).
-std::optional<Camera> fit_camera(const PointCloud& organized);
 
 // What verification compares instances with: the scene's points (and a grid over them) and, for
 // organized scenes, its depth image and camera for the free-space test.

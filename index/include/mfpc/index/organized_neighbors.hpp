@@ -1,0 +1,38 @@
+#pragma once
+
+#include <cstdint>
+#include <span>
+#include <vector>
+
+#include "mfpc/core/camera.hpp"
+#include "mfpc/core/point_cloud.hpp"
+#include "mfpc/index/neighbor_grid.hpp"
+
+namespace mfpc {
+
+// Exact k-nearest search over an organized cloud (a depth image), for normal estimation on sensor
+// clouds. On a Kinect view the distance to the 10th neighbour ranges from 2 mm to over 14 mm (the
+// oblique floor), so no grid cell suits every query; the image does: the candidates are the points
+// of the (2w+1)^2 pixels around the query's pixel. They are the true k nearest when the k-th lies
+// closer than any point outside the window can: such a point projects w+1 pixels away or more, so
+// it lies beyond one of four planes through the sensor, whose distance from the query bounds it
+// (the camera's fit residual is taken off the window). Queries the bound cannot settle go to the
+// grid. The results are NeighborGrid::knn_search's, bit for bit.
+class OrganizedNeighbors {
+public:
+    // `cloud` must be the cloud the grid passed to knn_search_batch was built over (same points,
+    // same order); `camera` fitted to it (fit_camera).
+    OrganizedNeighbors(const PointCloud& cloud, const Camera& camera, int window = 3);
+
+    // As NeighborGrid::knn_search_batch: min(k, size) entries per query.
+    void knn_search_batch(std::span<const Point> queries, int k, const NeighborGrid& grid,
+                          std::span<std::uint32_t> indices, std::span<float> squared_distances) const;
+
+private:
+    std::span<const Point> points_;
+    Camera camera_;
+    int window_;
+    std::vector<std::int32_t> pixels_;  // point index per pixel, -1 where no return
+};
+
+}  // namespace mfpc

@@ -1,0 +1,104 @@
+#include "mfpc/index/organized_neighbors.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <string>
+#include <utility>
+
+#include <tbb/blocked_range.h>
+#include <tbb/parallel_for.h>
+
+#include "mfpc/core/error.hpp"
+
+namespace mfpc {
+
+OrganizedNeighbors::OrganizedNeighbors(const PointCloud& cloud, const Camera& camera, int window)
+    : points_(cloud.points), camera_(camera), window_(window)
+{
+    if (!cloud.organized() || cloud.width != camera.width || cloud.height != camera.height)
+        throw Error("organized neighbours", "the cloud is not organized on the camera's " +
+                                                std::to_string(camera.width) + " x " + std::to_string(camera.height) +
+                                                " grid");
+    if (window < 1) throw Error("organized neighbours", "the window must be at least 1 pixel");
+    pixels_.assign(cloud.source_size(), -1);
+    for (std::size_t i = 0; i < cloud.size(); ++i) pixels_[cloud.source_position(i)] = std::int32_t(i);
+}
+
+void OrganizedNeighbors::knn_search_batch(std::span<const Point> queries, int k, const NeighborGrid& grid,
+                                          std::span<std::uint32_t> indices, std::span<float> squared_distances) const
+{
+    if (grid.points().data() != points_.data() || grid.size() != points_.size())
+        throw Error("organized neighbours", "the grid is not over the organized cloud's points");
+    const std::size_t want = k <= 0 ? 0 : std::min<std::size_t>(std::size_t(k), points_.size());
+    if (indices.size() != queries.size() * want || squared_distances.size() != queries.size() * want)
+        throw Error("organized neighbours", "knn_search_batch needs min(k, size) outputs per query");
+    if (want == 0 || queries.empty()) return;
+
+    // A point outside the window projects at least window + 1 pixels from the query's pixel, the
+    // query at most half a pixel from it, the point at most max_residual from its own.
+    const double slack = double(window_) + 0.5 - double(camera_.max_residual);
+    const double delta_x = slack / camera_.fx, delta_y = slack / camera_.fy;
+
+    std::vector<std::uint8_t> settled(queries.size(), 0);
+    tbb::parallel_for(tbb::blocked_range<std::size_t>(0, queries.size(), 1024), [&](const auto& range) {
+        std::vector<std::pair<float, std::uint32_t>> best;
+        best.reserve(want + 1);
+        for (std::size_t q = range.begin(); q < range.end(); ++q) {
+            const Point& center = queries[q];
+            if (slack <= 0.0 || !(center.z() > 0.0f)) continue;
+            const double a = double(center.x()) / center.z(), b = double(center.y()) / center.z();
+            const long u = std::lround(camera_.fx * a + camera_.cx), v = std::lround(camera_.fy * b + camera_.cy);
+            if (u < 0 || v < 0 || u >= long(camera_.width) || v >= long(camera_.height)) continue;
+            best.clear();
+            for (long y = std::max(0L, v - window_); y <= std::min(long(camera_.height) - 1, v + window_); ++y) {
+                for (long x = std::max(0L, u - window_); x <= std::min(long(camera_.width) - 1, u + window_); ++x) {
+                    const std::int32_t i = pixels_[std::size_t(y) * camera_.width + std::size_t(x)];
+                    if (i < 0) continue;
+                    const Point& p = points_[std::size_t(i)];
+                    // NeighborGrid's arithmetic, so the distances are its distances.
+                    const float dx = p.x() - center.x(), dy = p.y() - center.y(), dz = p.z() - center.z();
+                    const std::pair<float, std::uint32_t> candidate{dx * dx + dy * dy + dz * dz, std::uint32_t(i)};
+                    if (best.size() == want) {
+                        if (!(candidate < best.back())) continue;
+                        best.pop_back();
+                    }
+                    best.insert(std::upper_bound(best.begin(), best.end(), candidate), candidate);
+                }
+            }
+            if (best.size() < want) continue;
+            // Distance from the query to the planes x = (a ± δx) z and y = (b ± δy) z through the
+            // sensor; every point outside the window lies beyond one of them.
+            const double z = center.z();
+            const double bound = std::min({z * delta_x / std::sqrt(1.0 + (a + delta_x) * (a + delta_x)),
+                                           z * delta_x / std::sqrt(1.0 + (a - delta_x) * (a - delta_x)),
+                                           z * delta_y / std::sqrt(1.0 + (b + delta_y) * (b + delta_y)),
+                                           z * delta_y / std::sqrt(1.0 + (b - delta_y) * (b - delta_y))});
+            // Strictly inside, with a relative margin for the float distances: a tie with an
+            // unseen point must go to the grid, which breaks it by index.
+            if (!(double(best.back().first) < bound * bound * (1.0 - 1e-4))) continue;
+            for (std::size_t j = 0; j < want; ++j) {
+                indices[q * want + j] = best[j].second;
+                squared_distances[q * want + j] = best[j].first;
+            }
+            settled[q] = 1;
+        }
+    });
+    std::vector<Point> rest;
+    std::vector<std::uint32_t> rest_index;
+    for (std::size_t q = 0; q < queries.size(); ++q) {
+        if (settled[q]) continue;
+        rest.push_back(queries[q]);
+        rest_index.push_back(std::uint32_t(q));
+    }
+    if (rest.empty()) return;
+    std::vector<std::uint32_t> rest_indices(rest.size() * want);
+    std::vector<float> rest_distances(rest.size() * want);
+    grid.knn_search_batch(rest, int(want), rest_indices, rest_distances);
+    for (std::size_t r = 0; r < rest.size(); ++r) {
+        std::copy_n(rest_indices.begin() + std::ptrdiff_t(r * want), want, indices.begin() + std::ptrdiff_t(rest_index[r] * want));
+        std::copy_n(rest_distances.begin() + std::ptrdiff_t(r * want), want,
+                    squared_distances.begin() + std::ptrdiff_t(rest_index[r] * want));
+    }
+}
+
+}  // namespace mfpc

@@ -1,0 +1,108 @@
+#include <cmath>
+#include <random>
+#include <vector>
+
+#include <gtest/gtest.h>
+
+#include "mfpc/core/camera.hpp"
+#include "mfpc/core/cloud_io.hpp"
+#include "mfpc/core/error.hpp"
+#include "mfpc/index/neighbor_grid.hpp"
+#include "mfpc/index/organized_neighbors.hpp"
+#include "test_support.hpp"
+
+namespace mfpc {
+namespace {
+
+// A synthetic depth image: a tilted floor with a box in front of it and holes, seen by a 525 px
+// pinhole camera, as an organized cloud.
+PointCloud synthetic_view(std::uint32_t width, std::uint32_t height, std::uint32_t seed)
+{
+    std::mt19937 rng(seed);
+    std::normal_distribution<float> noise(0.0f, 0.002f);
+    std::uniform_real_distribution<float> unit(0.0f, 1.0f);
+    PointCloud cloud;
+    cloud.width = width;
+    cloud.height = height;
+    for (std::uint32_t v = 0; v < height; ++v) {
+        for (std::uint32_t u = 0; u < width; ++u) {
+            if (unit(rng) < 0.05f) continue;  // missing returns
+            const float a = (float(u) - 0.5f * float(width - 1)) / 525.0f;
+            const float b = (float(v) - 0.5f * float(height - 1)) / 525.0f;
+            // Floor plane y = 0.5 + 0.3 z seen obliquely; a box face at z = 0.9 in the middle.
+            float z = 0.5f / std::max(b - 0.3f, 0.02f);
+            z = std::min(z, 2.0f);
+            if (std::abs(a) < 0.1f && std::abs(b) < 0.1f) z = 0.9f;
+            z += noise(rng) * z * z;
+            cloud.points.emplace_back(a * z, b * z, z);
+            cloud.source_index.push_back(v * width + u);
+        }
+    }
+    return cloud;
+}
+
+void expect_same_as_grid(const PointCloud& cloud, int k, std::size_t stride, float cell)
+{
+    const auto camera = fit_camera(cloud);
+    ASSERT_TRUE(camera.has_value());
+    const NeighborGrid grid(cloud.points, cell);
+    const OrganizedNeighbors organized(cloud, *camera);
+    std::vector<Point> queries;
+    for (std::size_t i = 0; i < cloud.size(); i += stride) queries.push_back(cloud.points[i]);
+    queries.push_back(Point(0.01f, 0.02f, 0.95f));  // off the cloud, inside the image
+    queries.push_back(Point(5.0f, 0.0f, 1.0f));     // outside the image
+    queries.push_back(Point(0.0f, 0.0f, -1.0f));    // behind the sensor
+    const std::size_t want = std::min<std::size_t>(std::size_t(k), cloud.size());
+    std::vector<std::uint32_t> a(queries.size() * want), b(queries.size() * want);
+    std::vector<float> da(a.size()), db(b.size());
+    grid.knn_search_batch(queries, k, a, da);
+    organized.knn_search_batch(queries, k, grid, b, db);
+    EXPECT_EQ(a, b);
+    EXPECT_EQ(da, db);
+}
+
+TEST(OrganizedNeighbors, SameNeighboursAsTheGridOnASyntheticView)
+{
+    const PointCloud cloud = synthetic_view(160, 120, 3);
+    for (int k : {1, 10, 30}) expect_same_as_grid(cloud, k, 1, 0.02f);
+}
+
+TEST(OrganizedNeighbors, SameNeighboursAsTheGridOnTheRealScene)
+{
+    MFPC_SHARED_FILE_OR_SKIP(path, "milk_pair.pcd");
+    expect_same_as_grid(read_cloud(path), 10, 7, 0.005f);
+}
+
+TEST(OrganizedNeighbors, RefusesAnUnorganizedCloudAndAForeignGrid)
+{
+    const PointCloud cloud = synthetic_view(40, 30, 1);
+    const auto camera = fit_camera(cloud);
+    ASSERT_TRUE(camera.has_value());
+    PointCloud flat = cloud;
+    flat.width = std::uint32_t(flat.size());
+    flat.height = 1;
+    flat.source_index.clear();
+    EXPECT_FALSE(fit_camera(flat).has_value());
+    EXPECT_THROW(OrganizedNeighbors(flat, *camera), Error);
+    const OrganizedNeighbors organized(cloud, *camera);
+    const std::vector<Point> other = cloud.points;
+    const NeighborGrid foreign(other, 0.01f);
+    std::vector<std::uint32_t> indices(1);
+    std::vector<float> distances(1);
+    EXPECT_THROW(organized.knn_search_batch(std::span(cloud.points).first(1), 1, foreign, indices, distances), Error);
+}
+
+TEST(Camera, FitRecoversThePinhole)
+{
+    const PointCloud cloud = synthetic_view(160, 120, 5);
+    const auto camera = fit_camera(cloud);
+    ASSERT_TRUE(camera.has_value());
+    EXPECT_NEAR(camera->fx, 525.0f, 1e-2f);
+    EXPECT_NEAR(camera->fy, 525.0f, 1e-2f);
+    EXPECT_NEAR(camera->cx, 79.5f, 1e-3f);
+    EXPECT_NEAR(camera->cy, 59.5f, 1e-3f);
+    EXPECT_LT(camera->max_residual, 1e-3f);
+}
+
+}  // namespace
+}  // namespace mfpc
