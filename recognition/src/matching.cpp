@@ -1,6 +1,8 @@
 #include "mfpc/recognition/matching.hpp"
 
 #include <algorithm>
+#include <cstring>
+#include <type_traits>
 #include <memory>
 #include <string>
 
@@ -12,6 +14,70 @@
 #include "mfpc/kernels/shot.hpp"
 
 namespace mfpc {
+namespace {
+
+// FLANN's squared L2 for SHOT descriptors, summed in 8 lanes (two SSE registers) instead of one
+// running sum: 3-4x faster on 352 floats, and still a fixed order, so matches stay reproducible. It
+// gives up early, every 32 dimensions, once past the worst distance the search still accepts.
+struct ShotDistance {
+    using is_kdtree_distance = bool;
+    using ElementType = float;
+    using ResultType = float;
+    using Lanes = float __attribute__((vector_size(16)));
+
+    template <typename Iterator1, typename Iterator2>
+    ResultType operator()(Iterator1 a, Iterator2 b, std::size_t size, ResultType worst = -1) const
+    {
+        if constexpr (!std::is_convertible_v<Iterator1, const float*> || !std::is_convertible_v<Iterator2, const float*>) {
+            // FLANN's own bookkeeping (tree bounds in double): the plain sum.
+            ResultType sum = 0;
+            for (std::size_t i = 0; i < size; ++i) sum += ResultType((a[i] - b[i]) * (a[i] - b[i]));
+            return sum;
+        } else {
+            return lanes(a, b, size, worst);
+        }
+    }
+
+    template <typename U, typename V>
+    ResultType accum_dist(const U& a, const V& b, int) const
+    {
+        return (a - b) * (a - b);
+    }
+
+private:
+    static float lanes(const float* x, const float* y, std::size_t size, float worst)
+    {
+        Lanes low = {0, 0, 0, 0}, high = {0, 0, 0, 0};
+        std::size_t i = 0;
+        for (; i + 32 <= size; i += 32) {
+            for (std::size_t j = i; j < i + 32; j += 8) {
+                Lanes x0, x1, y0, y1;
+                std::memcpy(&x0, x + j, 16);
+                std::memcpy(&x1, x + j + 4, 16);
+                std::memcpy(&y0, y + j, 16);
+                std::memcpy(&y1, y + j + 4, 16);
+                const Lanes d0 = x0 - y0, d1 = x1 - y1;
+                low += d0 * d0;
+                high += d1 * d1;
+            }
+            if (worst > 0) {
+                const float sum = total(low, high);
+                if (sum > worst) return sum;
+            }
+        }
+        float rest = 0.0f;
+        for (; i < size; ++i) rest += (x[i] - y[i]) * (x[i] - y[i]);
+        return total(low, high) + rest;
+    }
+
+    static float total(const Lanes& low, const Lanes& high)
+    {
+        const Lanes sum = low + high;
+        return (sum[0] + sum[1]) + (sum[2] + sum[3]);
+    }
+};
+
+}  // namespace
 
 std::vector<Correspondence> match_descriptors(const Features& model, const Features& scene, const MatchParams& params)
 {
@@ -27,14 +93,14 @@ std::vector<Correspondence> match_descriptors(const Features& model, const Featu
     const int k = model_to_scene ? std::min<int>(params.k, int(indexed.size())) : 1;
 
     const flann::Matrix<float> data(const_cast<float*>(indexed.descriptors.data()), indexed.size(), shot_size);
-    std::unique_ptr<flann::Index<flann::L2<float>>> index;
+    std::unique_ptr<flann::Index<ShotDistance>> index;
     if (params.exact) {
-        index = std::make_unique<flann::Index<flann::L2<float>>>(data, flann::KDTreeSingleIndexParams(15));
+        index = std::make_unique<flann::Index<ShotDistance>>(data, flann::KDTreeSingleIndexParams(15));
     } else {
         // Seeding fixes FLANN's split choices; its input shuffle uses std::random_device, so
         // approximate matches can still differ from run to run (the README says so).
         flann::seed_random(1);
-        index = std::make_unique<flann::Index<flann::L2<float>>>(data, flann::KDTreeIndexParams(params.trees));
+        index = std::make_unique<flann::Index<ShotDistance>>(data, flann::KDTreeIndexParams(params.trees));
     }
     index->buildIndex();
 
