@@ -52,7 +52,7 @@ struct RefineParams {
     bool enabled = true;            // ICP of each instance onto the scene
     int iterations = 20;
     float max_distance = 0.01f;     // pairs farther than this are ignored (metres)
-    float model_voxel = 0.004f;     // the model is thinned to one point per voxel first (0: not)
+    float model_voxel = 0.008f;     // the model is thinned to one point per voxel first (0: not)
 };
 
 struct VerifyParams {
