@@ -282,10 +282,38 @@ std::map<std::string, Found>& found_by_run()
 enum class Variant { plain, tutorial, mfpc };
 constexpr const char* variant_names[] = {"plain", "tutorial", "mfpc"};
 
-void set_stage(benchmark::State& state, const char* stage, double total_ms)
+// Per-stage milliseconds of one run, as (counter name, value).
+using StageTimes = std::vector<std::pair<const char*, double>>;
+
+StageTimes stage_times(const PclStageTimes& t)
 {
-    state.counters[stage] = benchmark::Counter(total_ms, benchmark::Counter::kAvgIterations);
+    return {{"normals", t.normals}, {"keypoints", t.keypoints}, {"descriptors", t.descriptors},
+            {"lrf", t.lrf},         {"match", t.match},         {"group", t.group}};
 }
+
+StageTimes stage_times(const RecognitionTimings& t)
+{
+    return {{"foveate", t.foveate}, {"normals", t.normals}, {"keypoints", t.keypoints},
+            {"descriptors", t.descriptors}, {"lrf", t.lrf}, {"match", t.match},
+            {"group", t.group},     {"verify", t.verify}};
+}
+
+// Sums the stage times of the iterations into counters (per-iteration averages), whose medians
+// over the repetitions the reporter keeps.
+class StageCounters {
+public:
+    void add(const StageTimes& times)
+    {
+        for (const auto& [stage, ms] : times) sums_[stage] += ms;
+    }
+    void report(benchmark::State& state) const
+    {
+        for (const auto& [stage, ms] : sums_) state.counters[stage] = benchmark::Counter(ms, benchmark::Counter::kAvgIterations);
+    }
+
+private:
+    std::map<std::string, double> sums_;
+};
 
 std::string run_key(const std::string& pipeline, const Scene& scene, int threads)
 {
@@ -297,23 +325,13 @@ void BM_Pcl(benchmark::State& state, int scene_number)
     MFPC_REQUIRE_INPUTS(state, in);
     const Scene& scene = in->scenes[std::size_t(scene_number)];
     const int threads = int(state.range(0));
-    PclStageTimes sum;
+    StageCounters counters;
     PclResult last;
     for (auto _ : state) {
         last = pcl_recognize(in->pcl_model_features, scene.pcl_cloud, PclParams{}, threads);
-        sum.normals += last.times.normals;
-        sum.keypoints += last.times.keypoints;
-        sum.descriptors += last.times.descriptors;
-        sum.lrf += last.times.lrf;
-        sum.match += last.times.match;
-        sum.group += last.times.group;
+        counters.add(stage_times(last.times));
     }
-    set_stage(state, "normals", sum.normals);
-    set_stage(state, "keypoints", sum.keypoints);
-    set_stage(state, "descriptors", sum.descriptors);
-    set_stage(state, "lrf", sum.lrf);
-    set_stage(state, "match", sum.match);
-    set_stage(state, "group", sum.group);
+    counters.report(state);
 
     Found found;
     found.counts = {{"scene points", scene.pcl_cloud->size()},
@@ -341,27 +359,13 @@ void BM_Ours(benchmark::State& state, Variant variant, int scene_number)
     SceneFoveation foveation;
     if (variant == Variant::mfpc) foveation = SceneFoveation{&scene.config, FoveationMode::mfpc, 0};
 
-    RecognitionTimings sum;
+    StageCounters counters;
     RecognitionResult last;
     for (auto _ : state) {
         last = recognize(model, scene.cloud, params, foveation);
-        sum.foveate += last.timings.foveate;
-        sum.normals += last.timings.normals;
-        sum.keypoints += last.timings.keypoints;
-        sum.lrf += last.timings.lrf;
-        sum.descriptors += last.timings.descriptors;
-        sum.match += last.timings.match;
-        sum.group += last.timings.group;
-        sum.verify += last.timings.verify;
+        counters.add(stage_times(last.timings));
     }
-    set_stage(state, "foveate", sum.foveate);
-    set_stage(state, "normals", sum.normals);
-    set_stage(state, "keypoints", sum.keypoints);
-    set_stage(state, "descriptors", sum.descriptors);
-    set_stage(state, "lrf", sum.lrf);
-    set_stage(state, "match", sum.match);
-    set_stage(state, "group", sum.group);
-    set_stage(state, "verify", sum.verify);
+    counters.report(state);
 
     const RecognitionCounts& c = last.counts;
     Found found;

@@ -12,6 +12,7 @@
 #include <tbb/parallel_sort.h>
 
 #include "mfpc/core/error.hpp"
+#include "nearest_candidates.hpp"
 
 namespace mfpc {
 namespace {
@@ -25,6 +26,13 @@ inline float squared_distance(const Point& a, const Point& b)
     const float dy = a.y() - b.y();
     const float dz = a.z() - b.z();
     return dx * dx + dy * dy + dz * dz;
+}
+
+// The cell key of cell offset d (from the grid's minimum cell): sorting by it orders cells by
+// (z, y, x), so each row of cells is one run.
+inline std::uint64_t cell_key(const Eigen::Vector3i& d)
+{
+    return (std::uint64_t(d.z()) << (2 * axis_bits)) | (std::uint64_t(d.y()) << axis_bits) | std::uint64_t(d.x());
 }
 
 // Fibonacci hashing: the top bits of the product mix every bit of the key.
@@ -63,12 +71,7 @@ NeighborGrid::NeighborGrid(std::span<const Point> points, float cell_size)
 
     std::vector<std::pair<std::uint64_t, std::uint32_t>> order(points.size());
     tbb::parallel_for(tbb::blocked_range<std::size_t>(0, points.size(), 4096), [&](const auto& range) {
-        for (std::size_t i = range.begin(); i < range.end(); ++i) {
-            const Eigen::Vector3i d = cells[i] - min_cell_;
-            order[i] = {(std::uint64_t(d.z()) << (2 * axis_bits)) | (std::uint64_t(d.y()) << axis_bits) |
-                            std::uint64_t(d.x()),
-                        std::uint32_t(i)};
-        }
+        for (std::size_t i = range.begin(); i < range.end(); ++i) order[i] = {cell_key(cells[i] - min_cell_), std::uint32_t(i)};
     });
     // Pairs are unique (by index), so the sorted order does not depend on the thread count.
     tbb::parallel_sort(order.begin(), order.end());
@@ -130,6 +133,33 @@ bool NeighborGrid::row_range(int y, int z, int x0, int x1, std::uint32_t& begin,
     return true;
 }
 
+template <class Visit>
+void NeighborGrid::for_each_shell_range(const Eigen::Vector3i& c, int ring, Visit&& visit) const
+{
+    for (int z = c.z() - ring; z <= c.z() + ring; ++z) {
+        const bool z_face = std::abs(z - c.z()) == ring;
+        for (int y = c.y() - ring; y <= c.y() + ring; ++y) {
+            std::uint32_t begin = 0, end = 0;
+            if (z_face || std::abs(y - c.y()) == ring) {
+                if (row_range(y, z, c.x() - ring, c.x() + ring, begin, end)) visit(begin, end);
+            } else {  // ring > 0 here: ring 0 is all face
+                if (row_range(y, z, c.x() - ring, c.x() - ring, begin, end)) visit(begin, end);
+                if (row_range(y, z, c.x() + ring, c.x() + ring, begin, end)) visit(begin, end);
+            }
+        }
+    }
+}
+
+float NeighborGrid::shell_margin(const Point& center, const Eigen::Vector3i& c, int ring) const
+{
+    const Eigen::Vector3f block_lo = (c.array() - ring).cast<float>() * cell_size_;
+    const Eigen::Vector3f block_hi = (c.array() + ring + 1).cast<float>() * cell_size_;
+    // Shrunk by a relative 1e-5: cell membership came from floor(p / cell) in float, which may put
+    // a point a rounding error outside its nominal cell.
+    return std::min((center - block_lo).minCoeff(), (block_hi - center).minCoeff()) -
+           1e-5f * (center.cwiseAbs().maxCoeff() + cell_size_);
+}
+
 void NeighborGrid::radius_search(const Point& center, float radius, std::vector<std::uint32_t>& indices,
                                  std::vector<float>& squared_distances) const
 {
@@ -168,54 +198,28 @@ void NeighborGrid::knn_search(const Point& center, int k, std::vector<std::uint3
     if (points_.empty() || k <= 0) return;
     const std::size_t want = std::min<std::size_t>(std::size_t(k), points_.size());
 
-    // The best `want` candidates so far as (squared distance, index), kept sorted: for the small k
-    // of normal estimation an insertion beats a heap, and most candidates fail the first compare.
-    // Per thread, so that a query allocates nothing once the thread has seen a k this large.
-    thread_local std::vector<std::pair<float, std::uint32_t>> best;
+    // The best `want` candidates so far. Per thread, so that a query allocates nothing once the
+    // thread has seen a k this large.
+    thread_local std::vector<detail::Candidate> best;
     best.clear();
     best.reserve(want + 1);
     auto consider = [&](std::uint32_t begin, std::uint32_t end) {
-        for (std::uint32_t i = begin; i < end; ++i) {
-            const std::pair<float, std::uint32_t> candidate{squared_distance(ordered_points_[i], center),
-                                                            ordered_indices_[i]};
-            if (best.size() == want) {
-                if (!(candidate < best.back())) continue;
-                best.pop_back();
-            }
-            best.insert(std::upper_bound(best.begin(), best.end(), candidate), candidate);
-        }
+        for (std::uint32_t i = begin; i < end; ++i)
+            detail::keep_nearest(best, want, {squared_distance(ordered_points_[i], center), ordered_indices_[i]});
     };
 
     const Eigen::Vector3f cf = (center * inverse_cell_).array().floor();
     const Eigen::Vector3i c = cf.cwiseMax(min_cell_.cast<float>() - Eigen::Vector3f::Constant(2.0f))
                                   .cwiseMin(max_cell_.cast<float>() + Eigen::Vector3f::Constant(2.0f))
                                   .cast<int>();
-    // Shells of cells at Chebyshev distance 0, 1, 2, ... from the centre's cell. After shell R
-    // every point closer than the distance from the centre to the faces of the (2R+1)^3 block is
-    // known; rows on the shell's faces are read whole, the others only at their two ends.
+    // Shells of cells at Chebyshev distance 0, 1, 2, ... from the centre's cell, until the k-th
+    // candidate is closer than anything outside the block.
     const int max_ring = std::max((c - min_cell_).cwiseAbs().maxCoeff(), (max_cell_ - c).cwiseAbs().maxCoeff());
     for (int ring = 0; ring <= max_ring; ++ring) {
-        for (int z = c.z() - ring; z <= c.z() + ring; ++z) {
-            const bool z_face = std::abs(z - c.z()) == ring;
-            for (int y = c.y() - ring; y <= c.y() + ring; ++y) {
-                std::uint32_t begin = 0, end = 0;
-                if (z_face || std::abs(y - c.y()) == ring) {
-                    if (row_range(y, z, c.x() - ring, c.x() + ring, begin, end)) consider(begin, end);
-                } else {
-                    if (row_range(y, z, c.x() - ring, c.x() - ring, begin, end)) consider(begin, end);
-                    if (row_range(y, z, c.x() + ring, c.x() + ring, begin, end)) consider(begin, end);
-                }
-            }
-        }
-        if (best.size() == want) {
-            const Eigen::Vector3f block_lo = (c.array() - ring).cast<float>() * cell_size_;
-            const Eigen::Vector3f block_hi = (c.array() + ring + 1).cast<float>() * cell_size_;
-            // Shrunk by a relative 1e-5: cell membership came from floor(p / cell) in float, which
-            // may put a point a rounding error outside its nominal cell.
-            const float margin = std::min((center - block_lo).minCoeff(), (block_hi - center).minCoeff()) -
-                                 1e-5f * (center.cwiseAbs().maxCoeff() + cell_size_);
-            if (margin > 0.0f && best.back().first < margin * margin) break;
-        }
+        for_each_shell_range(c, ring, consider);
+        if (best.size() < want) continue;
+        const float margin = shell_margin(center, c, ring);
+        if (margin > 0.0f && best.back().first < margin * margin) break;
     }
     indices.reserve(best.size());
     squared_distances.reserve(best.size());
@@ -251,22 +255,8 @@ bool NeighborGrid::nearest(const Point& center, float radius, std::uint32_t& ind
     // than anything outside the block, or the block holds the whole radius.
     const int max_ring = int(std::ceil(radius * inverse_cell_)) + 1;
     for (int ring = 0; ring <= max_ring; ++ring) {
-        for (int z = c.z() - ring; z <= c.z() + ring; ++z) {
-            const bool z_face = std::abs(z - c.z()) == ring;
-            for (int y = c.y() - ring; y <= c.y() + ring; ++y) {
-                std::uint32_t begin = 0, end = 0;
-                if (z_face || std::abs(y - c.y()) == ring) {
-                    if (row_range(y, z, c.x() - ring, c.x() + ring, begin, end)) consider(begin, end);
-                } else {
-                    if (row_range(y, z, c.x() - ring, c.x() - ring, begin, end)) consider(begin, end);
-                    if (ring > 0 && row_range(y, z, c.x() + ring, c.x() + ring, begin, end)) consider(begin, end);
-                }
-            }
-        }
-        const Eigen::Vector3f block_lo = (c.array() - ring).cast<float>() * cell_size_;
-        const Eigen::Vector3f block_hi = (c.array() + ring + 1).cast<float>() * cell_size_;
-        const float margin = std::min((center - block_lo).minCoeff(), (block_hi - center).minCoeff()) -
-                             1e-5f * (center.cwiseAbs().maxCoeff() + cell_size_);
+        for_each_shell_range(c, ring, consider);
+        const float margin = shell_margin(center, c, ring);
         if (margin > 0.0f && (best < margin * margin || radius <= margin)) break;
     }
     if (found) squared_distance_out = best;
@@ -289,11 +279,8 @@ void NeighborGrid::knn_search_batch(std::span<const Point> queries, int k, std::
             const Eigen::Vector3f c = (queries[i] * inverse_cell_).array().floor();
             std::uint64_t key = outside;
             if (c.allFinite() && (c.array() >= min_cell_.cast<float>().array()).all() &&
-                (c.array() <= max_cell_.cast<float>().array()).all()) {
-                const Eigen::Vector3i d = c.cast<int>() - min_cell_;
-                key = (std::uint64_t(d.z()) << (2 * axis_bits)) | (std::uint64_t(d.y()) << axis_bits) |
-                      std::uint64_t(d.x());
-            }
+                (c.array() <= max_cell_.cast<float>().array()).all())
+                key = cell_key(c.cast<int>() - min_cell_);
             order[i] = {key, std::uint32_t(i)};
         }
     });
@@ -308,7 +295,7 @@ void NeighborGrid::knn_search_batch(std::span<const Point> queries, int k, std::
         // vectorises; the arithmetic is squared_distance()'s, lane by lane, so results are equal.
         std::vector<float> xs, ys, zs, d2s;
         std::vector<std::uint32_t> ids;
-        std::vector<std::pair<float, std::uint32_t>> best;
+        std::vector<detail::Candidate> best;
         std::vector<std::uint32_t> one_indices;
         std::vector<float> one_distances;
         std::vector<std::pair<std::uint64_t, std::uint32_t>> pending, next_pending;
@@ -327,9 +314,7 @@ void NeighborGrid::knn_search_batch(std::span<const Point> queries, int k, std::
             }
             const Eigen::Vector3i c = (queries[order[first].second] * inverse_cell_).array().floor().cast<int>();
             xs.clear(), ys.clear(), zs.clear(), ids.clear();
-            auto gather = [&](int y, int z, int x0, int x1) {
-                std::uint32_t begin = 0, end = 0;
-                if (!row_range(y, z, x0, x1, begin, end)) return;
+            auto gather = [&](std::uint32_t begin, std::uint32_t end) {
                 for (std::uint32_t i = begin; i < end; ++i) {
                     xs.push_back(ordered_points_[i].x());
                     ys.push_back(ordered_points_[i].y());
@@ -345,22 +330,10 @@ void NeighborGrid::knn_search_batch(std::span<const Point> queries, int k, std::
                     for (const auto& entry : pending) fall_back(entry.second);
                     break;
                 }
-                for (int z = c.z() - ring; z <= c.z() + ring; ++z) {
-                    const bool z_face = std::abs(z - c.z()) == ring;
-                    for (int y = c.y() - ring; y <= c.y() + ring; ++y) {
-                        if (z_face || std::abs(y - c.y()) == ring) {
-                            gather(y, z, c.x() - ring, c.x() + ring);
-                        } else {
-                            gather(y, z, c.x() - ring, c.x() - ring);
-                            if (ring > 0) gather(y, z, c.x() + ring, c.x() + ring);
-                        }
-                    }
-                }
+                for_each_shell_range(c, ring, gather);
                 const std::size_t count = ids.size();
                 if (count < want) continue;
                 d2s.resize(count);
-                const Eigen::Vector3f block_lo = (c.array() - ring).cast<float>() * cell_size_;
-                const Eigen::Vector3f block_hi = (c.array() + ring + 1).cast<float>() * cell_size_;
                 next_pending.clear();
                 for (const auto& entry : pending) {
                     const std::uint32_t q = entry.second;
@@ -371,17 +344,9 @@ void NeighborGrid::knn_search_batch(std::span<const Point> queries, int k, std::
                         d2s[j] = dx * dx + dy * dy + dz * dz;
                     }
                     best.clear();
-                    for (std::size_t j = 0; j < count; ++j) {
-                        const std::pair<float, std::uint32_t> candidate{d2s[j], ids[j]};
-                        if (best.size() == want) {
-                            if (!(candidate < best.back())) continue;
-                            best.pop_back();
-                        }
-                        best.insert(std::upper_bound(best.begin(), best.end(), candidate), candidate);
-                    }
+                    for (std::size_t j = 0; j < count; ++j) detail::keep_nearest(best, want, {d2s[j], ids[j]});
                     // knn_search's stopping rule.
-                    const float margin = std::min((center - block_lo).minCoeff(), (block_hi - center).minCoeff()) -
-                                         1e-5f * (center.cwiseAbs().maxCoeff() + cell_size_);
+                    const float margin = shell_margin(center, c, ring);
                     if (!(margin > 0.0f && best.back().first < margin * margin)) {
                         next_pending.push_back(entry);
                         continue;

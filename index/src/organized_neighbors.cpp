@@ -9,6 +9,7 @@
 #include <tbb/parallel_for.h>
 
 #include "mfpc/core/error.hpp"
+#include "nearest_candidates.hpp"
 
 namespace mfpc {
 
@@ -41,7 +42,7 @@ void OrganizedNeighbors::knn_search_batch(std::span<const Point> queries, int k,
 
     std::vector<std::uint8_t> settled(queries.size(), 0);
     tbb::parallel_for(tbb::blocked_range<std::size_t>(0, queries.size(), 1024), [&](const auto& range) {
-        std::vector<std::pair<float, std::uint32_t>> best;
+        std::vector<detail::Candidate> best;
         best.reserve(want + 1);
         for (std::size_t q = range.begin(); q < range.end(); ++q) {
             const Point& center = queries[q];
@@ -57,12 +58,7 @@ void OrganizedNeighbors::knn_search_batch(std::span<const Point> queries, int k,
                     const Point& p = points_[std::size_t(i)];
                     // NeighborGrid's arithmetic, so the distances are its distances.
                     const float dx = p.x() - center.x(), dy = p.y() - center.y(), dz = p.z() - center.z();
-                    const std::pair<float, std::uint32_t> candidate{dx * dx + dy * dy + dz * dz, std::uint32_t(i)};
-                    if (best.size() == want) {
-                        if (!(candidate < best.back())) continue;
-                        best.pop_back();
-                    }
-                    best.insert(std::upper_bound(best.begin(), best.end(), candidate), candidate);
+                    detail::keep_nearest(best, want, {dx * dx + dy * dy + dz * dz, std::uint32_t(i)});
                 }
             }
             if (best.size() < want) continue;

@@ -137,40 +137,35 @@ inline Double2 sqrt2(Double2 v)
 #endif
 }
 
+// The polynomial with these coefficients (highest degree first), each scaled by `scale` and
+// rounded to float, evaluated at x by Horner's rule in float.
+template <std::size_t N>
+inline Float4 horner(Float4 x, const double (&coefficients)[N], double scale)
+{
+    Float4 p = Float4{} + float(coefficients[0] * scale);
+    for (std::size_t i = 1; i < N; ++i) p = p * x + float(coefficients[i] * scale);
+    return p;
+}
+
 // atan(t) / (pi / 4) for t in [0, 1]: t * P(t^2), a Chebyshev fit of atan(sqrt(s)) / sqrt(s) on
 // [0, 1] (|error| < 1e-8 rad in double; the float evaluation adds a few 1e-8), scaled.
 inline Float4 atan_in_eighths(Float4 t)
 {
-    constexpr double k = 4 / pi;
-    const Float4 s = t * t;
-    Float4 p = Float4{} + float(0.0027662835013404015 * k);
-    p = p * s + float(-0.01573124912073214 * k);
-    p = p * s + float(0.04213762358723227 * k);
-    p = p * s + float(-0.07456854825872634 * k);
-    p = p * s + float(0.10618370636906622 * k);
-    p = p * s + float(-0.14197797794075448 * k);
-    p = p * s + float(0.1999187202910766 * k);
-    p = p * s + float(-0.33333036709286157 * k);
-    p = p * s + float(0.9999999817886557 * k);
-    return t * p;
+    static constexpr double fit[] = {0.0027662835013404015, -0.01573124912073214, 0.04213762358723227,
+                                     -0.07456854825872634,  0.10618370636906622,  -0.14197797794075448,
+                                     0.1999187202910766,    -0.33333036709286157, 0.9999999817886557};
+    return t * horner(t * t, fit, 4 / pi);
 }
 
 // acos(c) / (pi / 2) for c in [-1, 1]: sqrt(1 - |c|) * P(|c|), a Chebyshev fit of
 // acos(a) / sqrt(1 - a) on [0, 1] (|error| < 5e-9 rad in double), scaled, reflected for c < 0.
 inline Float4 acos_in_quarters(Float4 c)
 {
-    constexpr double k = 2 / pi;
+    static constexpr double fit[] = {0.0006845318147962699, -0.003974577696981246, 0.011028380656028748,
+                                     -0.020727665245290787, 0.032571170170718006,  -0.050593573883134575,
+                                     0.08903013693955901,   -0.21460116073167954,  1.5707963226438153};
     const Float4 a = abs4(c);
-    Float4 p = Float4{} + float(0.0006845318147962699 * k);
-    p = p * a + float(-0.003974577696981246 * k);
-    p = p * a + float(0.011028380656028748 * k);
-    p = p * a + float(-0.020727665245290787 * k);
-    p = p * a + float(0.032571170170718006 * k);
-    p = p * a + float(-0.050593573883134575 * k);
-    p = p * a + float(0.08903013693955901 * k);
-    p = p * a + float(-0.21460116073167954 * k);
-    p = p * a + float(1.5707963226438153 * k);
-    const Float4 r = sqrt4(1.0f - a) * p;
+    const Float4 r = sqrt4(1.0f - a) * horner(a, fit, 2 / pi);
     return c < 0.0f ? 2.0f - r : r;
 }
 

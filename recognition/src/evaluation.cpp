@@ -45,9 +45,7 @@ Evaluation evaluate(const RecognitionResult& result, const Model& model, const G
         out.possible_correspondences == 0 ? 0.0 : double(hit.size()) / double(out.possible_correspondences);
 
     // Instances: the object's position is the model centroid carried by the transform.
-    Eigen::Vector3d sum = Eigen::Vector3d::Zero();
-    for (const Point& p : model.points) sum += p.cast<double>();
-    const Point centroid = model.points.empty() ? Point::Zero() : Point((sum / double(model.points.size())).cast<float>());
+    const Point centroid = model_centroid(model);
     std::vector<std::uint8_t> claimed(truth.instances.size(), 0);
     for (const auto& instance : result.instances) {
         int match = -1;

@@ -22,10 +22,6 @@ double elapsed_ms(std::chrono::steady_clock::time_point since)
     return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - since).count();
 }
 
-// Grid cell for k-nearest queries: a few point spacings, so that the first ring of cells holds the
-// k neighbours on a surface sampled like a Kinect view at 1-2 m (about 2 mm spacing).
-constexpr float knn_cell = 0.005f;
-
 }  // namespace
 
 std::span<const float> Features::descriptor(std::size_t i) const
@@ -34,7 +30,7 @@ std::span<const float> Features::descriptor(std::size_t i) const
 }
 
 Features describe_keypoints(std::span<const Point> surface, std::span<const std::uint32_t> keypoints,
-                            std::span<const Point> normal_source, const FeatureParams& params, FeatureTimings* timings,
+                            const NeighborGrid& normal_source, const FeatureParams& params, FeatureTimings* timings,
                             const OrganizedNeighbors* organized)
 {
     if (!(params.lrf_radius > 0.0f) || !(params.shot_radius > 0.0f))
@@ -70,11 +66,8 @@ Features describe_keypoints(std::span<const Point> surface, std::span<const std:
     std::vector<Point> query_points(queries.size());
     for (std::size_t i = 0; i < queries.size(); ++i) query_points[i] = surface[queries[i]];
     std::vector<Point> query_normals(queries.size());
-    {
-        const NeighborGrid normal_grid(normal_source, knn_cell);
-        estimate_normals(query_points, normal_grid, NormalParams{params.normal_k, Point::Zero()}, query_normals,
-                         organized);
-    }
+    estimate_normals(query_points, normal_source, NormalParams{params.normal_k, Point::Zero()}, query_normals,
+                     organized);
     std::vector<Point> normals(surface.size(), Point::Constant(std::numeric_limits<float>::quiet_NaN()));
     for (std::size_t i = 0; i < queries.size(); ++i) normals[queries[i]] = query_normals[i];
     time.normals_ms += elapsed_ms(start);

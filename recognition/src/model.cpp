@@ -91,6 +91,14 @@ template <class T> bool all_finite(const std::vector<T>& v)
 
 }  // namespace
 
+Point model_centroid(const Model& model)
+{
+    if (model.points.empty()) return Point::Zero();
+    Eigen::Vector3d sum = Eigen::Vector3d::Zero();
+    for (const Point& p : model.points) sum += p.cast<double>();
+    return (sum / double(model.points.size())).cast<float>();
+}
+
 Model prepare_model(const PointCloud& cloud, const FeatureParams& params, const std::string& source,
                     FeatureTimings* timings)
 {
@@ -100,12 +108,10 @@ Model prepare_model(const PointCloud& cloud, const FeatureParams& params, const 
     model.params = params;
     model.source = source;
     model.normals.resize(model.points.size());
-    {
-        const NeighborGrid grid(model.points, 0.005f);
-        estimate_normals(model.points, grid, NormalParams{params.normal_k, Point::Zero()}, model.normals);
-    }
+    const NeighborGrid grid(model.points, normal_grid_cell);
+    estimate_normals(model.points, grid, NormalParams{params.normal_k, Point::Zero()}, model.normals);
     const auto keypoints = uniform_sampling(model.points, params.keypoint_radius);
-    model.features = describe_keypoints(model.points, keypoints, model.points, params, timings);
+    model.features = describe_keypoints(model.points, keypoints, grid, params, timings);
     if (model.features.size() < 3)
         throw Error(source, "the model has " + std::to_string(model.features.size()) +
                                 " usable keypoints (fewer than 3): is it too small for keypoint_radius " +

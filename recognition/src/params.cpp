@@ -229,6 +229,8 @@ RecognitionParams read_recognition_params(const std::filesystem::path& path)
     return parse_recognition_params(read_text_file(path), path.string());
 }
 
+std::string to_json(const FeatureParams& p) { return features_json(p).dump(2) + "\n"; }
+
 std::string to_json(const RecognitionParams& p)
 {
     const json root = {

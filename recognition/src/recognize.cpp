@@ -50,19 +50,26 @@ RecognitionResult recognize(const Model& model, const PointCloud& scene, const R
                        : uniform_sampling(used->points, foveated.labels, foveation.config->structures);
     result.timings.keypoints = elapsed_ms(t);
 
+    // One grid and one camera over the whole scene serve the normals (when taken from the full
+    // scene) and verification.
     FeatureTimings feature_timings;
     const bool full_normals = params.normals_from == NormalsFrom::full || used == &scene;
-    const std::span<const Point> normal_source = full_normals ? std::span<const Point>(scene.points)
-                                                              : std::span<const Point>(used->points);
-    // A sensor scene's neighbours are found in its depth image (same result, faster).
+    const bool verify = params.refine.enabled || params.verify.enabled;
     t = Clock::now();
-    std::optional<OrganizedNeighbors> organized;
-    if (full_normals) {
-        if (const auto camera = fit_camera(scene)) organized.emplace(scene, *camera);
+    std::optional<NeighborGrid> scene_grid;
+    std::optional<Camera> camera;
+    if (full_normals || verify) {
+        scene_grid.emplace(scene.points, normal_grid_cell);
+        camera = fit_camera(scene);
     }
+    // A sensor scene's neighbours are found in its depth image (same result, faster).
+    std::optional<OrganizedNeighbors> organized;
+    if (full_normals && camera) organized.emplace(scene, *camera);
+    std::optional<NeighborGrid> foveated_grid;
+    if (!full_normals) foveated_grid.emplace(used->points, normal_grid_cell);
     feature_timings.normals_ms = elapsed_ms(t);
-    result.scene_features = describe_keypoints(used->points, keypoints, normal_source, params.scene, &feature_timings,
-                                               organized ? &*organized : nullptr);
+    result.scene_features = describe_keypoints(used->points, keypoints, full_normals ? *scene_grid : *foveated_grid,
+                                               params.scene, &feature_timings, organized ? &*organized : nullptr);
     result.timings.normals = feature_timings.normals_ms;
     result.timings.lrf = feature_timings.lrf_ms;
     result.timings.descriptors = feature_timings.descriptors_ms;
@@ -81,14 +88,11 @@ RecognitionResult recognize(const Model& model, const PointCloud& scene, const R
     result.counts.instances_before_verification = result.instances.size();
     result.timings.group = elapsed_ms(t);
 
-    if (params.refine.enabled || params.verify.enabled) {
+    if (verify) {
         t = Clock::now();
         // Verification looks at the whole scene, whatever foveation kept: it asks whether the
         // sensor saw the model there.
-        // Cells of a few sensor spacings: nearest-point queries near the surface stop after the
-        // first shell.
-        const NeighborGrid grid(scene.points, 0.005f);
-        const SceneEvidence evidence = make_scene_evidence(scene, grid);
+        const SceneEvidence evidence = make_scene_evidence(scene, *scene_grid, camera);
         result.instances = refine_and_verify(std::move(result.instances), model.points, model.normals, evidence,
                                              params.refine, params.verify);
         result.timings.verify = elapsed_ms(t);

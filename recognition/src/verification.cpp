@@ -48,12 +48,12 @@ Fit icp(const Pose& start, std::span<const Point> model, const SceneEvidence& sc
 
 }  // namespace
 
-SceneEvidence make_scene_evidence(const PointCloud& scene, const NeighborGrid& grid)
+SceneEvidence make_scene_evidence(const PointCloud& scene, const NeighborGrid& grid, std::optional<Camera> camera)
 {
     SceneEvidence evidence;
     evidence.points = scene.points;
     evidence.grid = &grid;
-    evidence.camera = fit_camera(scene);
+    evidence.camera = camera;
     if (evidence.camera) {
         evidence.depth.assign(scene.source_size(), std::numeric_limits<float>::quiet_NaN());
         for (std::size_t i = 0; i < scene.size(); ++i) evidence.depth[scene.source_position(i)] = scene.points[i].z();

@@ -30,20 +30,27 @@ struct OracleCloud {
     std::vector<Point> keypoint_points;
 };
 
-inline OracleCloud load_oracle_cloud(const std::filesystem::path& path, std::size_t stride)
+// PCL NormalEstimation, k = 10, kd-tree, into pcl_normals and normals.
+inline void add_pcl_normals(OracleCloud& out)
 {
-    OracleCloud out;
-    out.cloud = read_cloud(path);
-    out.pcl_cloud.reset(new pcl::PointCloud<pcl::PointXYZ>(to_pcl(out.cloud)));
-
     pcl::NormalEstimation<pcl::PointXYZ, pcl::Normal> estimation;
     estimation.setInputCloud(out.pcl_cloud);
     estimation.setSearchMethod(pcl::search::KdTree<pcl::PointXYZ>::Ptr(new pcl::search::KdTree<pcl::PointXYZ>));
     estimation.setKSearch(10);
-    out.pcl_normals.reset(new pcl::PointCloud<pcl::Normal>);
     estimation.compute(*out.pcl_normals);
     out.normals.reserve(out.cloud.size());
     for (const auto& n : *out.pcl_normals) out.normals.emplace_back(n.normal_x, n.normal_y, n.normal_z);
+}
+
+// `with_normals` false leaves pcl_normals and normals empty (PCL's normals of a whole scene cost
+// about a second).
+inline OracleCloud load_oracle_cloud(const std::filesystem::path& path, std::size_t stride, bool with_normals = true)
+{
+    OracleCloud out;
+    out.cloud = read_cloud(path);
+    out.pcl_cloud.reset(new pcl::PointCloud<pcl::PointXYZ>(to_pcl(out.cloud)));
+    out.pcl_normals.reset(new pcl::PointCloud<pcl::Normal>);
+    if (with_normals) add_pcl_normals(out);
 
     out.pcl_keypoints.reset(new pcl::PointCloud<pcl::PointXYZ>);
     for (std::size_t i = 0; i < out.cloud.size(); i += stride) {

@@ -22,7 +22,7 @@ bool is_model_cache(const std::string& path) { return std::filesystem::path(path
 
 nlohmann::ordered_json feature_params_json(const FeatureParams& p)
 {
-    return nlohmann::ordered_json::parse(to_json(RecognitionParams{p, p, {}, {}, {}, {}, {}}))["scene"];
+    return nlohmann::ordered_json::parse(to_json(p));
 }
 
 nlohmann::ordered_json row_major(const Pose& pose)
@@ -124,8 +124,7 @@ void run_recognize(const RecognizeOptions& options, const GlobalOptions& global)
     const bool cached = is_model_cache(options.model);
     if (cached) {
         model = read_model_cache(options.model);
-        if (!options.params.empty() && to_json(RecognitionParams{model.params, model.params, {}, {}, {}, {}, {}}) !=
-                                           to_json(RecognitionParams{params.model, params.model, {}, {}, {}, {}, {}}))
+        if (!options.params.empty() && model.params != params.model)
             throw Error(options.model, "the cache was made with other model parameters than " + options.params +
                                            " gives: run `mfpc model` again with these parameters");
         params.model = model.params;
@@ -144,11 +143,8 @@ void run_recognize(const RecognizeOptions& options, const GlobalOptions& global)
     const std::optional<Evaluation> evaluation =
         truth ? std::optional<Evaluation>(evaluate(result, model, *truth)) : std::nullopt;
 
-    // Where each instance puts the model: its centroid in the scene (the transform's translation
-    // is where the model's sensor origin goes, far from the object).
-    Eigen::Vector3d sum = Eigen::Vector3d::Zero();
-    for (const Point& p : model.points) sum += p.cast<double>();
-    const Point centroid = (sum / double(model.points.size())).cast<float>();
+    // Where each instance puts the object: the model's centroid in the scene.
+    const Point centroid = model_centroid(model);
     nlohmann::ordered_json instances = nlohmann::ordered_json::array();
     for (std::size_t i = 0; i < result.instances.size(); ++i) {
         const Instance& instance = result.instances[i];

@@ -54,6 +54,12 @@ private:
     const Row* find_row(int y, int z) const;
     // Points of row (y, z) whose cells lie in x0..x1: the range [begin, end) of ordered_points_.
     bool row_range(int y, int z, int x0, int x1, std::uint32_t& begin, std::uint32_t& end) const;
+    // Calls visit(begin, end) for the point ranges of the cells at Chebyshev distance `ring` from
+    // cell c: rows on the shell's faces whole, the others at their two ends.
+    template <class Visit>
+    void for_each_shell_range(const Eigen::Vector3i& c, int ring, Visit&& visit) const;
+    // Every point closer to `center` than this lies in the (2 ring + 1)^3 block around cell c.
+    float shell_margin(const Point& center, const Eigen::Vector3i& c, int ring) const;
 
     std::span<const Point> points_;
     float cell_size_;

@@ -6,6 +6,7 @@
 #include <vector>
 
 #include "mfpc/core/point_cloud.hpp"
+#include "mfpc/index/neighbor_grid.hpp"
 #include "mfpc/index/organized_neighbors.hpp"
 #include "mfpc/kernels/local_reference_frame.hpp"
 #include "mfpc/recognition/params.hpp"
@@ -31,13 +32,18 @@ struct FeatureTimings {
     double descriptors_ms = 0;
 };
 
-// Normals, BOARD frames and SHOT descriptors at `keypoints` (indices into surface.points) over
-// the search surface `surface`. Normals are estimated only for the surface points inside some
-// keypoint's support, from their `normal_k` nearest neighbours in `normal_source` (the surface
-// itself, or a denser cloud that contains the same geometry). When normal_source is an organized
-// cloud, `organized` (built over it) speeds the neighbour search up without changing the result.
+// Grid cell for the k-nearest queries of normal estimation: a few sensor spacings (about 2 mm on a
+// Kinect view at 1-2 m), so the first shells of cells hold the k neighbours.
+inline constexpr float normal_grid_cell = 0.005f;
+
+// Normals, BOARD frames and SHOT descriptors at `keypoints` (indices into surface) over the search
+// surface `surface`. Normals are estimated only for the surface points inside some keypoint's
+// support, from their `normal_k` nearest neighbours in `normal_source` (a grid over the surface
+// itself, or over a denser cloud that holds the same geometry; cell normal_grid_cell). When that
+// cloud is organized, `organized` (built over it) speeds the neighbour search up without changing
+// the result.
 Features describe_keypoints(std::span<const Point> surface, std::span<const std::uint32_t> keypoints,
-                            std::span<const Point> normal_source, const FeatureParams& params,
+                            const NeighborGrid& normal_source, const FeatureParams& params,
                             FeatureTimings* timings = nullptr, const OrganizedNeighbors* organized = nullptr);
 
 }  // namespace mfpc

@@ -20,6 +20,10 @@ struct Model {
     std::string source;          // the file the model came from
 };
 
+// The centroid of the model's points: where an instance's transform puts the object (its
+// translation moves the model's sensor origin, a metre or two away).
+Point model_centroid(const Model& model);
+
 Model prepare_model(const PointCloud& cloud, const FeatureParams& params, const std::string& source,
                     FeatureTimings* timings = nullptr);
 

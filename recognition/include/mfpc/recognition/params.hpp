@@ -12,6 +12,7 @@ struct FeatureParams {
     float keypoint_radius = 0.03f;  // uniform sampling radius (plain clouds; foveated ones use r_k)
     float lrf_radius = 0.015f;     // r_l: BOARD support (the frames Hough voting uses)
     float shot_radius = 0.02f;     // r_s: SHOT support
+    friend bool operator==(const FeatureParams&, const FeatureParams&) = default;
 };
 
 enum class NormalsFrom {
@@ -85,6 +86,7 @@ struct RecognitionParams {
 RecognitionParams parse_recognition_params(std::string_view json_text, const std::string& source);
 RecognitionParams read_recognition_params(const std::filesystem::path& path);
 std::string to_json(const RecognitionParams& params);
+std::string to_json(const FeatureParams& params);  // the "scene" / "model" block alone
 // Throws mfpc::Error naming the field of any value out of range.
 void check_recognition_params(const RecognitionParams& params, const std::string& source = "params");
 

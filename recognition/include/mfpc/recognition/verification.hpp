@@ -16,11 +16,12 @@ namespace mfpc {
 // organized scenes, its depth image and camera for the free-space test.
 struct SceneEvidence {
     std::span<const Point> points;
-    const NeighborGrid* grid = nullptr;   // over points, any cell size near the inlier distance
+    const NeighborGrid* grid = nullptr;   // over points; cells of a few sensor spacings suit it best
     std::optional<Camera> camera;
     std::vector<float> depth;             // camera->width * height, NaN where no return
 };
-SceneEvidence make_scene_evidence(const PointCloud& scene, const NeighborGrid& grid);
+// `camera`: fit_camera(scene), or nothing for an unorganized scene (no free-space test then).
+SceneEvidence make_scene_evidence(const PointCloud& scene, const NeighborGrid& grid, std::optional<Camera> camera);
 
 // ICP (point to point, Umeyama per iteration) of each instance's model onto the scene, starting
 // from its pose; then fitness: the fraction of the model points the sensor could have seen (normal

@@ -1,0 +1,26 @@
+#pragma once
+
+// Private to index/: the k-best list shared by the grid and the organized k-nearest searches.
+
+#include <algorithm>
+#include <cstdint>
+#include <utility>
+#include <vector>
+
+namespace mfpc::detail {
+
+// (squared distance, point index): ordered so that ties go to the lower index.
+using Candidate = std::pair<float, std::uint32_t>;
+
+// Keeps `best` the sorted `want` smallest candidates seen. For the small k of normal estimation an
+// insertion beats a heap, and most candidates fail the first compare.
+inline void keep_nearest(std::vector<Candidate>& best, std::size_t want, const Candidate& candidate)
+{
+    if (best.size() == want) {
+        if (!(candidate < best.back())) return;
+        best.pop_back();
+    }
+    best.insert(std::upper_bound(best.begin(), best.end(), candidate), candidate);
+}
+
+}  // namespace mfpc::detail
