@@ -76,4 +76,13 @@ void estimate_normals(std::span<const Point> queries, const NeighborGrid& surfac
     }
 }
 
+void orient_normals(std::span<Point> normals, std::span<const Point> reference)
+{
+    if (normals.size() != reference.size())
+        throw Error("orient_normals", "one reference normal per normal is needed (" + std::to_string(normals.size()) +
+                                          " normals, " + std::to_string(reference.size()) + " references)");
+    for (std::size_t i = 0; i < normals.size(); ++i)
+        if (reference[i].allFinite() && normals[i].dot(reference[i]) < 0.0f) normals[i] = -normals[i];
+}
+
 }  // namespace mfpc

@@ -31,8 +31,10 @@ std::span<const float> Features::descriptor(std::size_t i) const
 
 Features describe_keypoints(std::span<const Point> surface, std::span<const std::uint32_t> keypoints,
                             const NeighborGrid& normal_source, const FeatureParams& params, FeatureTimings* timings,
-                            const OrganizedNeighbors* organized)
+                            const OrganizedNeighbors* organized, std::span<const Point> orientation)
 {
+    if (!orientation.empty() && orientation.size() != surface.size())
+        throw Error("describe_keypoints", "the orientation normals must be one per surface point");
     if (!(params.lrf_radius > 0.0f) || !(params.shot_radius > 0.0f))
         throw Error("describe_keypoints", "the LRF and SHOT radii must be positive");
     for (std::uint32_t k : keypoints)
@@ -68,6 +70,11 @@ Features describe_keypoints(std::span<const Point> surface, std::span<const std:
     std::vector<Point> query_normals(queries.size());
     estimate_normals(query_points, normal_source, NormalParams{params.normal_k, Point::Zero()}, query_normals,
                      organized);
+    if (!orientation.empty()) {
+        std::vector<Point> reference(queries.size());
+        for (std::size_t i = 0; i < queries.size(); ++i) reference[i] = orientation[queries[i]];
+        orient_normals(query_normals, reference);
+    }
     std::vector<Point> normals(surface.size(), Point::Constant(std::numeric_limits<float>::quiet_NaN()));
     for (std::size_t i = 0; i < queries.size(); ++i) normals[queries[i]] = query_normals[i];
     time.normals_ms += elapsed_ms(start);

@@ -110,8 +110,13 @@ Model prepare_model(const PointCloud& cloud, const FeatureParams& params, const 
     model.normals.resize(model.points.size());
     const NeighborGrid grid(model.points, normal_grid_cell);
     estimate_normals(model.points, grid, NormalParams{params.normal_k, Point::Zero()}, model.normals);
+    // A model with normals of its own (sampled all around an object) is oriented by them; a view
+    // from a sensor (no normals) faces the sensor at the origin.
+    const std::span<const Point> orientation = cloud.has_normals() ? std::span<const Point>(cloud.normals)
+                                                                   : std::span<const Point>();
+    if (!orientation.empty()) orient_normals(model.normals, orientation);
     const auto keypoints = uniform_sampling(model.points, params.keypoint_radius);
-    model.features = describe_keypoints(model.points, keypoints, grid, params, timings);
+    model.features = describe_keypoints(model.points, keypoints, grid, params, timings, nullptr, orientation);
     if (model.features.size() < 3)
         throw Error(source, "the model has " + std::to_string(model.features.size()) +
                                 " usable keypoints (fewer than 3): is it too small for keypoint_radius " +

@@ -23,4 +23,9 @@ struct NormalParams {
 void estimate_normals(std::span<const Point> queries, const NeighborGrid& surface, const NormalParams& params,
                       std::span<Point> normals, const OrganizedNeighbors* organized = nullptr);
 
+// Flips each normal whose dot product with its reference normal is negative (a closed model has no
+// viewpoint to face; its own outward normals orient the estimated ones). A non-finite reference
+// leaves its normal alone. Both spans have one entry per point.
+void orient_normals(std::span<Point> normals, std::span<const Point> reference);
+
 }  // namespace mfpc

@@ -24,6 +24,8 @@ struct Model {
 // translation moves the model's sensor origin, a metre or two away).
 Point model_centroid(const Model& model);
 
+// Normals are estimated (k = normal_k) and face the sensor at the origin, as for a scanned view;
+// when the cloud carries normals (a model sampled all around a mesh), they orient the estimated ones.
 Model prepare_model(const PointCloud& cloud, const FeatureParams& params, const std::string& source,
                     FeatureTimings* timings = nullptr);
 
