@@ -6,6 +6,7 @@
 #include <memory>
 #include <string>
 
+#include <Eigen/Eigenvalues>
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
 
@@ -14,6 +15,13 @@
 
 namespace mfpc {
 namespace {
+
+// Whether a model point placed at p (camera frame) by `pose` turns its surface to the sensor; a
+// point without a normal (a degenerate neighbourhood) gives no evidence either way.
+bool faces_camera(const Pose& pose, const Point& p, const Point& normal)
+{
+    return normal.allFinite() && (pose.linear() * normal).dot(-p) > 0.0f;
+}
 
 struct Fit {
     Pose pose;
@@ -88,14 +96,17 @@ std::vector<Instance> refine_and_verify(std::vector<Instance> instances, std::sp
         // the looser ICP distance, will not make it: reject it before paying for ICP (most Hough
         // maxima in clutter are such; true ones start within a centimetre).
         if (verify.enabled) {
-            std::size_t near = 0;
+            std::size_t near = 0, facing = 0;
             const float radius = std::max(refine.max_distance, verify.inlier_distance);
-            for (const Point& p : points) {
+            for (std::size_t i = 0; i < points.size(); ++i) {
+                const Point p = instance.transform * points[i];
+                if (!faces_camera(instance.transform, p, normals[i])) continue;
+                ++facing;
                 std::uint32_t nearest = 0;
                 float d2 = 0.0f;
-                if (scene.grid->nearest(instance.transform * p, radius, nearest, d2)) ++near;
+                if (scene.grid->nearest(p, radius, nearest, d2)) ++near;
             }
-            if (float(near) < 0.75f * verify.min_coverage * float(points.size())) {
+            if (float(near) < 0.75f * verify.min_coverage * float(facing) || facing == 0) {
                 instance.fitness = 0.0f;
                 instance.coverage = 0.0f;
                 return;
@@ -107,7 +118,9 @@ std::vector<Instance> refine_and_verify(std::vector<Instance> instances, std::sp
             instance.rmse = fit.rmse;
         }
         if (!verify.enabled) return;
-        std::size_t facing = 0, inliers = 0, projected = 0, violations = 0;
+        std::size_t facing = 0, visible = 0, inliers = 0, projected = 0, violations = 0;
+        Eigen::Vector3d sum = Eigen::Vector3d::Zero();
+        Eigen::Matrix3d products = Eigen::Matrix3d::Zero();
         for (std::size_t i = 0; i < points.size(); ++i) {
             const Point p = instance.transform * points[i];
             // Free space, for every model point whichever way its surface faces: a solid object
@@ -127,17 +140,29 @@ std::vector<Instance> refine_and_verify(std::vector<Instance> instances, std::sp
                     }
                 }
             }
-            // Fitness, over the points the sensor could have seen: facing it, and not hidden.
-            if (hidden || !normals[i].allFinite()) continue;
-            const Point normal = instance.transform.linear() * normals[i];
-            if (normal.dot(-p) <= 0.0f) continue;
+            if (!faces_camera(instance.transform, p, normals[i])) continue;
             ++facing;
+            // Fitness, over the points the sensor could have seen: facing it, and not hidden.
+            if (hidden) continue;
+            ++visible;
             std::uint32_t nearest = 0;
             float d2 = 0.0f;
-            if (scene.grid->nearest(p, verify.inlier_distance, nearest, d2)) ++inliers;
+            if (scene.grid->nearest(p, verify.inlier_distance, nearest, d2)) {
+                ++inliers;
+                const Eigen::Vector3d q = p.cast<double>();
+                sum += q;
+                products += q * q.transpose();
+            }
         }
-        instance.fitness = facing ? float(inliers) / float(facing) : 0.0f;
-        instance.coverage = points.empty() ? 0.0f : float(inliers) / float(points.size());
+        if (inliers >= 3) {
+            const Eigen::Vector3d mean = sum / double(inliers);
+            const Eigen::Matrix3d covariance = products / double(inliers) - mean * mean.transpose();
+            const double smallest = Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d>(covariance, Eigen::EigenvaluesOnly)
+                                        .eigenvalues()[0];
+            instance.inlier_thickness = float(std::sqrt(std::max(smallest, 0.0)));
+        }
+        instance.fitness = visible ? float(inliers) / float(visible) : 0.0f;
+        instance.coverage = facing ? float(inliers) / float(facing) : 0.0f;
         instance.free_space_violation = projected ? float(violations) / float(projected) : 0.0f;
     });
     if (!verify.enabled) return instances;
@@ -145,7 +170,8 @@ std::vector<Instance> refine_and_verify(std::vector<Instance> instances, std::sp
     std::vector<Instance> accepted;
     for (auto& instance : instances)
         if (instance.fitness >= verify.min_inlier_fraction && instance.coverage >= verify.min_coverage &&
-            instance.free_space_violation <= verify.max_free_space_fraction)
+            instance.free_space_violation <= verify.max_free_space_fraction &&
+            instance.inlier_thickness >= verify.min_inlier_thickness)
             accepted.push_back(std::move(instance));
     if (!verify.merge) return accepted;
     // Duplicates: two solid objects cannot share space, so an instance whose placed model overlaps

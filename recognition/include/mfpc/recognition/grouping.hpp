@@ -15,8 +15,9 @@ struct Instance {
     float votes = 0.0f;                          // Hough: interpolated votes of the maximum; GC: cluster size
     std::vector<Correspondence> correspondences;  // the consistent ones (pose fit inliers)
     float fitness = 0.0f;                        // after verification: inlier fraction (0 when not verified)
-    float coverage = 0.0f;                      // inlier model points / all model points
+    float coverage = 0.0f;                      // inlier model points / model points facing the camera
     float free_space_violation = 0.0f;
+    float inlier_thickness = 0.0f;               // spread of the fitting points off their best plane (metres)
     float rmse = 0.0f;                           // of the refined fit (metres)
 };
 
