@@ -1,5 +1,6 @@
 #include "mfpc/recognition/evaluation.hpp"
 
+#include <algorithm>
 #include <limits>
 #include <set>
 #include <utility>
@@ -15,15 +16,23 @@ Evaluation evaluate(const RecognitionResult& result, const Model& model, const G
     const auto& scene = result.scene_features;
     const float tolerance2 = params.correspondence_tolerance * params.correspondence_tolerance;
 
+    // A symmetric object sits identically under each of its equivalent transforms, and a keypoint
+    // matched to its symmetric twin is as right as one matched to itself.
+    std::vector<std::vector<Pose>> equivalent;
+    for (const auto& t : truth.instances) equivalent.push_back(t.equivalent_transforms());
+
     // Correct correspondences, and the distinct (model keypoint, true instance) pairs they hit.
     std::set<std::pair<std::uint32_t, std::size_t>> hit;
     for (const auto& c : result.correspondences) {
         bool correct = false;
         for (std::size_t t = 0; t < truth.instances.size(); ++t) {
-            const Point expected = truth.instances[t].transform * model.features.keypoints[c.model];
-            if ((expected - scene.keypoints[c.scene]).squaredNorm() <= tolerance2) {
-                correct = true;
-                hit.emplace(c.model, t);
+            for (const Pose& pose : equivalent[t]) {
+                const Point expected = pose * model.features.keypoints[c.model];
+                if ((expected - scene.keypoints[c.scene]).squaredNorm() <= tolerance2) {
+                    correct = true;
+                    hit.emplace(c.model, t);
+                    break;
+                }
             }
         }
         if (correct) ++out.correct_correspondences;
@@ -34,10 +43,14 @@ Evaluation evaluate(const RecognitionResult& result, const Model& model, const G
         std::vector<std::uint32_t> indices;
         std::vector<float> distances;
         for (std::size_t t = 0; t < truth.instances.size(); ++t)
-            for (const Point& k : model.features.keypoints) {
-                grid.radius_search(truth.instances[t].transform * k, params.correspondence_tolerance, indices, distances);
-                if (!indices.empty()) ++out.possible_correspondences;
-            }
+            for (const Point& k : model.features.keypoints)
+                for (const Pose& pose : equivalent[t]) {
+                    grid.radius_search(pose * k, params.correspondence_tolerance, indices, distances);
+                    if (!indices.empty()) {
+                        ++out.possible_correspondences;
+                        break;
+                    }
+                }
     }
     out.correspondence_precision =
         result.correspondences.empty() ? 0.0 : double(out.correct_correspondences) / double(result.correspondences.size());
@@ -52,11 +65,17 @@ Evaluation evaluate(const RecognitionResult& result, const Model& model, const G
         float best = params.instance_translation;
         float nearest = std::numeric_limits<float>::infinity();
         float nearest_angle = std::numeric_limits<float>::quiet_NaN();
-        for (const auto& t : truth.instances) {
-            const float distance = (instance.transform * centroid - t.transform * centroid).norm();
+        // The rotation error to a true instance: to the nearest of its equivalent transforms.
+        auto angle_to = [&](std::size_t t) {
+            float angle = std::numeric_limits<float>::infinity();
+            for (const Pose& pose : equivalent[t]) angle = std::min(angle, rotation_error_deg(instance.transform, pose));
+            return angle;
+        };
+        for (std::size_t t = 0; t < truth.instances.size(); ++t) {
+            const float distance = (instance.transform * centroid - truth.instances[t].transform * centroid).norm();
             if (distance < nearest) {
                 nearest = distance;
-                nearest_angle = rotation_error_deg(instance.transform, t.transform);
+                nearest_angle = angle_to(t);
             }
         }
         out.position_error.push_back(nearest);
@@ -64,8 +83,7 @@ Evaluation evaluate(const RecognitionResult& result, const Model& model, const G
         for (std::size_t t = 0; t < truth.instances.size(); ++t) {
             if (claimed[t]) continue;
             const float distance = (instance.transform * centroid - truth.instances[t].transform * centroid).norm();
-            if (distance <= best &&
-                rotation_error_deg(instance.transform, truth.instances[t].transform) <= params.instance_angle_deg) {
+            if (distance <= best && angle_to(t) <= params.instance_angle_deg) {
                 best = distance;
                 match = int(t);
             }

@@ -56,7 +56,7 @@ void check_keys(const json& object, const std::string& prefix, std::initializer_
 GroundTruthInstance read_instance(const json& instance, const std::string& where)
 {
     if (!instance.is_object()) throw Error(where, "must be an object");
-    check_keys(instance, where + ".", {"transform", "object", "visible_points"});
+    check_keys(instance, where + ".", {"transform", "object", "visible_points", "symmetry"});
 
     GroundTruthInstance out;
     const auto transform = instance.find("transform");
@@ -86,10 +86,39 @@ GroundTruthInstance read_instance(const json& instance, const std::string& where
         if (!count) throw Error(where + ".visible_points", "must be a non-negative integer");
         out.visible_points = visible->get<long>();
     }
+    if (const auto symmetry = instance.find("symmetry"); symmetry != instance.end()) {
+        const std::string key = where + ".symmetry";
+        if (!symmetry->is_object()) throw Error(key, "must be an object {\"axis\": [x, y, z], \"order\": N}");
+        check_keys(*symmetry, key + ".", {"axis", "order"});
+        const auto axis = symmetry->find("axis");
+        const auto order = symmetry->find("order");
+        if (axis == symmetry->end()) throw Error(key + ".axis", "missing");
+        if (order == symmetry->end()) throw Error(key + ".order", "missing");
+        if (!axis->is_array() || axis->size() != 3 ||
+            !std::all_of(axis->begin(), axis->end(), [](const json& v) { return v.is_number(); }))
+            throw Error(key + ".axis", "must be an array of 3 numbers");
+        const Eigen::Vector3f direction((*axis)[0].get<float>(), (*axis)[1].get<float>(), (*axis)[2].get<float>());
+        if (!direction.allFinite() || direction.norm() < 1e-6f) throw Error(key + ".axis", "must be a non-zero vector");
+        if (!order->is_number_unsigned() || order->get<std::uint64_t>() > 360)
+            throw Error(key + ".order", "must be an integer 0..360 (0: any angle)");
+        out.symmetry_axis = direction.normalized();
+        out.symmetry_order = int(order->get<std::uint64_t>());
+    }
     return out;
 }
 
 }  // namespace
+
+std::vector<Pose> GroundTruthInstance::equivalent_transforms() const
+{
+    const int turns = symmetry_order == 0 ? 360 : std::max(symmetry_order, 1);
+    std::vector<Pose> out;
+    for (int k = 0; k < turns; ++k) {
+        const float angle = float(2.0 * 3.14159265358979323846 * k / turns);
+        out.push_back(transform * Eigen::AngleAxisf(angle, symmetry_axis));
+    }
+    return out;
+}
 
 GroundTruth read_ground_truth(const std::filesystem::path& path)
 {

@@ -136,5 +136,41 @@ TEST(GroundTruth, RejectsUnknownKeys)
     EXPECT_EQ(error_of(dir, "{\"instances\": [], \"a.b\": 1}"), "\"a.b\": unknown key");
 }
 
+TEST(GroundTruth, ReadsASymmetryAndItsEquivalentTransforms)
+{
+    TempDir dir;
+    const auto path = dir.write("scene.gt.json", one_instance(", \"symmetry\": {\"axis\": [0, 0, 2], \"order\": 2}"));
+    const GroundTruth truth = read_ground_truth(path);
+    ASSERT_EQ(truth.instances.size(), 1u);
+    EXPECT_EQ(truth.instances[0].symmetry_order, 2);
+    EXPECT_TRUE(truth.instances[0].symmetry_axis.isApprox(Eigen::Vector3f::UnitZ()));
+    const std::vector<Pose> equivalent = truth.instances[0].equivalent_transforms();
+    ASSERT_EQ(equivalent.size(), 2u);
+    EXPECT_TRUE(equivalent[0].isApprox(Pose::Identity()));
+    // Half a turn about z: x -> -x, y -> -y.
+    EXPECT_TRUE((equivalent[1] * Eigen::Vector3f(1, 2, 3)).isApprox(Eigen::Vector3f(-1, -2, 3), 1e-6f));
+
+    GroundTruthInstance bottle;
+    bottle.symmetry_order = 0;  // any angle: sampled every degree
+    EXPECT_EQ(bottle.equivalent_transforms().size(), 360u);
+    EXPECT_EQ(GroundTruthInstance{}.equivalent_transforms().size(), 1u);
+}
+
+TEST(GroundTruth, RejectsBadSymmetries)
+{
+    TempDir dir;
+    EXPECT_EQ(error_of(dir, one_instance(", \"symmetry\": 2")), "instances[0].symmetry: must be an object {\"axis\": [x, y, z], \"order\": N}");
+    EXPECT_EQ(error_of(dir, one_instance(", \"symmetry\": {\"order\": 2}")), "instances[0].symmetry.axis: missing");
+    EXPECT_EQ(error_of(dir, one_instance(", \"symmetry\": {\"axis\": [0, 0, 1]}")), "instances[0].symmetry.order: missing");
+    EXPECT_EQ(error_of(dir, one_instance(", \"symmetry\": {\"axis\": [0, 0], \"order\": 2}")),
+              "instances[0].symmetry.axis: must be an array of 3 numbers");
+    EXPECT_EQ(error_of(dir, one_instance(", \"symmetry\": {\"axis\": [0, 0, 0], \"order\": 2}")),
+              "instances[0].symmetry.axis: must be a non-zero vector");
+    EXPECT_EQ(error_of(dir, one_instance(", \"symmetry\": {\"axis\": [0, 0, 1], \"order\": -2}")),
+              "instances[0].symmetry.order: must be an integer 0..360 (0: any angle)");
+    EXPECT_EQ(error_of(dir, one_instance(", \"symmetry\": {\"axis\": [0, 0, 1], \"order\": 2, \"about\": 1}")),
+              "instances[0].symmetry.about: unknown key");
+}
+
 }  // namespace
 }  // namespace mfpc

@@ -29,7 +29,8 @@ struct Evaluation {
 // Scores a recognition result against ground truth: a correspondence is correct when its scene
 // keypoint lies within correspondence_tolerance of its model keypoint mapped by some true
 // instance's transform; found instances are matched greedily (in result order) to the nearest
-// unclaimed true instance within the translation and angle limits.
+// unclaimed true instance within the translation and angle limits. For a symmetric object (the
+// ground truth's "symmetry"), each of its equivalent transforms counts as the true one.
 Evaluation evaluate(const RecognitionResult& result, const Model& model, const GroundTruth& truth,
                     const EvaluationParams& params = {});
 

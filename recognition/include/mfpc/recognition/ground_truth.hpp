@@ -12,10 +12,21 @@ namespace mfpc {
 //   {"model": "<file>", "instances": [{"transform": [16 numbers, row-major 4x4]}, ...]}
 // Each transform maps model coordinates into scene coordinates. Instances may carry an "object"
 // name and a "visible_points" count (written by the synthetic scanner); both are optional.
+//
+// An instance may also carry the object's rotational symmetry, "symmetry": {"axis": [x, y, z],
+// "order": N}: turning the model by 360/N degrees about `axis` (in model coordinates, through the
+// model's origin) leaves it unchanged; N = 0 means any angle (a bottle). A pose off by such a turn
+// is then as right as the transform given (a carton turned half a turn looks the same).
 struct GroundTruthInstance {
     Pose transform = Pose::Identity();
     std::string object;
     long visible_points = -1;  // -1 when not given
+    Eigen::Vector3f symmetry_axis = Eigen::Vector3f::UnitZ();
+    int symmetry_order = 1;    // 1: no symmetry; 0: continuous
+
+    // The transforms that place the object identically: transform composed with each turn of the
+    // symmetry (a continuous symmetry is sampled every degree).
+    std::vector<Pose> equivalent_transforms() const;
 };
 
 struct GroundTruth {
