@@ -1,0 +1,70 @@
+#include "mfpc/tools/view_model.hpp"
+
+#include <cmath>
+#include <numbers>
+
+#include "mfpc/core/error.hpp"
+#include "mfpc/index/neighbor_grid.hpp"
+#include "mfpc/index/organized_neighbors.hpp"
+#include "mfpc/kernels/uniform_sampling.hpp"
+#include "mfpc/recognition/features.hpp"
+#include "mfpc/tools/synthetic_scene.hpp"
+
+namespace mfpc {
+
+Model prepare_view_model(const SceneShape& shape, const PointCloud& surface, const FeatureParams& params,
+                         const ViewModelParams& views, FeatureTimings* timings)
+{
+    if (views.headings < 1 || views.elevations_deg.empty())
+        throw Error(shape.name, "a view model needs at least one heading and one elevation");
+    if (surface.empty() || !surface.has_normals())
+        throw Error(shape.name, "the model's surface cloud needs points and normals");
+
+    SyntheticScene scene;
+    scene.shapes = {shape};
+    scene.objects.push_back(SceneObject{});
+    scene.plane_half_size = Eigen::Vector2f::Zero();
+    const Box bounds = shape.mesh.empty() ? bounding_box(shape.discs.points) : shape.mesh.bounds();
+    const Eigen::Vector3f target(0, 0, bounds.center().z());
+
+    Model model;
+    model.points = surface.points;
+    model.normals = surface.normals;
+    model.params = params;
+    model.source = shape.name + " (" + std::to_string(views.headings * int(views.elevations_deg.size())) + " views)";
+    std::uint32_t view_index = 0;
+    for (float elevation_deg : views.elevations_deg) {
+        for (int h = 0; h < views.headings; ++h, ++view_index) {
+            const double heading = 2.0 * std::numbers::pi * h / views.headings;
+            const double elevation = double(elevation_deg) * std::numbers::pi / 180.0;
+            const Eigen::Vector3f eye =
+                target + views.distance * Eigen::Vector3f(float(std::cos(elevation) * std::cos(heading)),
+                                                          float(std::cos(elevation) * std::sin(heading)),
+                                                          float(std::sin(elevation)));
+            scene.camera = camera_looking_at(eye, target);
+            const Scan scan = scan_scene(scene, views.sensor, views.seed + view_index);
+            if (scan.cloud.size() < 3) continue;
+            const NeighborGrid grid(scan.cloud.points, normal_grid_cell);
+            const OrganizedNeighbors organized(scan.cloud, scan.camera);
+            const auto keypoints = uniform_sampling(scan.cloud.points, params.keypoint_radius);
+            const Features view = describe_keypoints(scan.cloud.points, keypoints, grid, params, timings, &organized);
+
+            // Into the object's frame: keypoints by the camera pose, frame axes (rows) by its rotation.
+            const Eigen::Matrix3f rotation = scene.camera.linear();
+            Features& all = model.features;
+            for (std::size_t i = 0; i < view.size(); ++i) {
+                all.keypoints.push_back(scene.camera * view.keypoints[i]);
+                all.frames.push_back(view.frames[i] * rotation.transpose());
+            }
+            all.descriptors.insert(all.descriptors.end(), view.descriptors.begin(), view.descriptors.end());
+            all.candidates += view.candidates;
+            all.invalid += view.invalid;
+        }
+    }
+    if (model.features.size() < 3)
+        throw Error(shape.name, "the views give " + std::to_string(model.features.size()) +
+                                    " usable keypoints (fewer than 3): is the object too small for keypoint_radius?");
+    return model;
+}
+
+}  // namespace mfpc
