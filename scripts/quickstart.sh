@@ -1,14 +1,13 @@
 #!/usr/bin/env bash
-# The README's first command: installs what is missing, builds Release and runs the main job on the
-# built-in procedural tabletop scene (no input needed): multifoveation with redundancy treatment,
-# one foveated structure per object. Writes out/foveated.pcd and out/foveate.json.
+# The README's first command: installs what is missing, builds Release and runs the main job, which
+# needs no input: `mfpc demo` synthesizes a tabletop scene with ground truth, recognizes its cartons
+# with and without multifoveation, prints the comparison and writes out/demo/ (with demo.png).
 set -euo pipefail
 cd "$(dirname "$0")/.."
 
 bash scripts/install-deps.sh
 cmake --preset release
 cmake --build --preset release --target mfpc_cli
-mkdir -p out
-build/release/tools/mfpc --json out/foveate.json foveate --procedural -o out/foveated.pcd
+build/release/tools/mfpc --json out/demo.json demo -o out/demo
 echo
-echo "quickstart: wrote out/foveated.pcd and out/foveate.json"
+echo "quickstart: wrote out/demo/ (scene, ground truth, labels, models, demo.png) and out/demo.json"

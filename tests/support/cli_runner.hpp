@@ -49,4 +49,15 @@ inline int line_count(const std::string& text)
     return int(std::count(text.begin(), text.end(), '\n'));
 }
 
+// A path as one shell word.
+inline std::string quoted(const std::filesystem::path& path) { return "'" + path.string() + "'"; }
+
+// The house rule for failures: exit `code`, and one line on stderr starting "mfpc: ".
+inline void expect_one_line_error(const Result& r, int code, const std::string& what)
+{
+    EXPECT_EQ(r.exit_code, code) << what << "\n" << r.err;
+    EXPECT_EQ(r.err.rfind("mfpc: ", 0), 0u) << what << "\n" << r.err;
+    EXPECT_EQ(line_count(r.err), 1) << what << "\n" << r.err;
+}
+
 }  // namespace mfpc::test

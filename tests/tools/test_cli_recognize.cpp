@@ -12,19 +12,12 @@
 namespace mfpc {
 namespace {
 
+using test::expect_one_line_error;
 using test::line_count;
+using test::quoted;
 using test::Result;
 using test::run;
 using test::slurp;
-
-std::string quoted(const std::filesystem::path& path) { return "'" + path.string() + "'"; }
-
-void expect_one_line_error(const Result& r, int code, const std::string& what)
-{
-    EXPECT_EQ(r.exit_code, code) << what << "\n" << r.err;
-    EXPECT_EQ(r.err.rfind("mfpc: ", 0), 0u) << what << "\n" << r.err;
-    EXPECT_EQ(line_count(r.err), 1) << what << "\n" << r.err;
-}
 
 TEST(CliRecognize, UsageErrorsExitTwo)
 {

@@ -12,5 +12,8 @@ void add_info_command(CLI::App& app, const GlobalOptions& global);
 void add_foveate_command(CLI::App& app, const GlobalOptions& global);
 void add_model_command(CLI::App& app, const GlobalOptions& global);
 void add_recognize_command(CLI::App& app, const GlobalOptions& global);
+void add_render_command(CLI::App& app, const GlobalOptions& global);
+void add_synth_command(CLI::App& app, const GlobalOptions& global);
+void add_demo_command(CLI::App& app, const GlobalOptions& global);
 
 }  // namespace mfpc::cli

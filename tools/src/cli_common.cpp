@@ -2,6 +2,8 @@
 
 #include <iostream>
 
+#include <CLI/CLI.hpp>
+
 #include "mfpc/core/atomic_file.hpp"
 
 namespace mfpc::cli {
@@ -30,6 +32,22 @@ std::string format_fixed(double value, int decimals)
     char buffer[64];
     std::snprintf(buffer, sizeof buffer, "%.*f", decimals, value);
     return buffer;
+}
+
+std::pair<std::uint32_t, std::uint32_t> parse_size(const std::string& text, const std::string& option,
+                                                   std::uint32_t max_side)
+{
+    const std::size_t x = text.find('x');
+    auto side = [&](const std::string& digits) -> std::uint32_t {
+        if (digits.empty() || digits.size() > 6 || digits.find_first_not_of("0123456789") != std::string::npos) return 0;
+        const unsigned long value = std::stoul(digits);
+        return value <= max_side ? std::uint32_t(value) : 0;
+    };
+    const std::uint32_t width = x == std::string::npos ? 0 : side(text.substr(0, x));
+    const std::uint32_t height = x == std::string::npos ? 0 : side(text.substr(x + 1));
+    if (width == 0 || height == 0)
+        throw CLI::ValidationError(option, "'" + text + "' is not WIDTHxHEIGHT with sides 1.." + std::to_string(max_side));
+    return {width, height};
 }
 
 void print_rows(const std::vector<std::pair<std::string, std::string>>& rows)

@@ -1,11 +1,13 @@
 #pragma once
 
 #include <chrono>
+#include <cstdint>
 #include <cstdio>
 #include <string>
 #include <vector>
 
 #include <nlohmann/json.hpp>
+#include <utility>
 
 namespace mfpc::cli {
 
@@ -27,6 +29,11 @@ void warn(const std::string& message);
 // "307,200"
 std::string group_digits(std::size_t value);
 std::string format_fixed(double value, int decimals);
+
+// "640x480" -> (640, 480); throws CLI::ValidationError naming `option` for anything else or a side
+// outside 1..max_side.
+std::pair<std::uint32_t, std::uint32_t> parse_size(const std::string& text, const std::string& option,
+                                                   std::uint32_t max_side = 16384);
 
 // A two-column table with aligned keys.
 void print_rows(const std::vector<std::pair<std::string, std::string>>& rows);

@@ -1,0 +1,94 @@
+// `mfpc synth` and `mfpc demo` as a user meets them: the files, reproducible bytes at any thread
+// count, and one-line errors.
+#include <gtest/gtest.h>
+#include <nlohmann/json.hpp>
+
+#include "cli_runner.hpp"
+#include "test_support.hpp"
+
+namespace mfpc {
+namespace {
+
+using test::expect_one_line_error;
+using test::line_count;
+using test::quoted;
+using test::Result;
+using test::run;
+using test::slurp;
+
+TEST(CliSynth, SameSeedSameBytesOnAnyThreadCount)
+{
+    const test::TempDir dir;
+    const std::string common = "synth --seed 4 --objects 2 --distractors 2 --resolution 320x240";
+    const Result one = run("--threads 1 " + common + " -o " + quoted(dir / "one"));
+    ASSERT_EQ(one.exit_code, 0) << one.err;
+    const Result two = run("--threads 2 --json " + quoted(dir / "summary.json") + " " + common + " -o " + quoted(dir / "two"));
+    ASSERT_EQ(two.exit_code, 0) << two.err;
+    for (const char* file : {"scene.pcd", "labels.png", "scene.gt.json", "scene.json", "fovea.json", "carton.pcd",
+                             "carton.mfpcm"}) {
+        const std::string bytes = slurp(dir / "one" / file);
+        EXPECT_FALSE(bytes.empty()) << file;
+        EXPECT_EQ(bytes, slurp(dir / "two" / file)) << file;
+    }
+    const auto summary = nlohmann::json::parse(slurp(dir / "summary.json"));
+    EXPECT_EQ(summary["width"], 320);
+    EXPECT_EQ(summary["objects"].size(), 4u);
+    EXPECT_NE(one.out.find("scene points"), std::string::npos);
+
+    const Result other = run(common.substr(0, 13) + "5" + common.substr(14) + " -o " + quoted(dir / "other"));
+    ASSERT_EQ(other.exit_code, 0) << other.err;
+    EXPECT_NE(slurp(dir / "one" / "scene.pcd"), slurp(dir / "other" / "scene.pcd"));
+}
+
+TEST(CliSynth, BadInputIsOneLine)
+{
+    const test::TempDir dir;
+    const std::string out = " -o " + quoted(dir / "out");
+    expect_one_line_error(run("synth"), 2, "no output");
+    expect_one_line_error(run("synth --resolution 0x480" + out), 2, "zero width");
+    expect_one_line_error(run("synth --resolution 640by480" + out), 2, "bad size");
+    expect_one_line_error(run("synth --up w" + out), 2, "bad up axis");
+    expect_one_line_error(run("synth --object cup" + out), 1, "unknown object");
+    expect_one_line_error(run("synth --object " + quoted(dir / "missing.ply") + out), 1, "missing mesh");
+    expect_one_line_error(run("synth --object " + quoted(dir.write("broken.obj", "v 0 0 0\nf 1 2 3\n")) + out), 1,
+                          "broken mesh");
+    expect_one_line_error(run("synth --objects 0 --distractors 0" + out), 1, "nothing to place");
+    expect_one_line_error(run("synth --max-incidence 120" + out), 1, "bad sensor");
+    expect_one_line_error(run("synth --min-range 5 --max-range 4" + out), 1, "empty range");
+    expect_one_line_error(run("demo --object cup -o " + quoted(dir / "demo")), 2, "demo of an unknown object");
+    EXPECT_FALSE(std::filesystem::exists(dir / "out" / "scene.pcd"));
+}
+
+TEST(CliSynth, PlacesAScannedCloudModel)
+{
+    MFPC_SHARED_FILE_OR_SKIP(milk, "milk.pcd");
+    const test::TempDir dir;
+    const Result r = run("synth --object " + quoted(milk) + " --objects 2 --distractors 1 --resolution 320x240 -o " +
+                         quoted(dir / "out"));
+    ASSERT_EQ(r.exit_code, 0) << r.err;
+    const auto truth = nlohmann::json::parse(slurp(dir / "out" / "scene.gt.json"));
+    EXPECT_EQ(truth["model"], "milk.pcd");
+    EXPECT_EQ(truth["instances"].size(), 2u);
+    EXPECT_GT(truth["instances"][0]["visible_points"].get<long>() + truth["instances"][1]["visible_points"].get<long>(),
+              100);
+}
+
+TEST(CliDemo, RunsWithNoInputAndFindsTheCartons)
+{
+    const test::TempDir dir;
+    const Result r = run("--json " + quoted(dir / "demo.json") + " demo -o " + quoted(dir / "demo"));
+    ASSERT_EQ(r.exit_code, 0) << r.err;
+    const auto summary = nlohmann::json::parse(slurp(dir / "demo.json"));
+    ASSERT_EQ(summary["strategies"].size(), 2u);
+    for (const auto& strategy : summary["strategies"]) {
+        EXPECT_EQ(strategy["instances_true"], 3) << strategy["strategy"];
+        EXPECT_EQ(strategy["instances_false"], 0) << strategy["strategy"];
+    }
+    EXPECT_LT(summary["strategies"][1]["scene_points_used"].get<long>(),
+              summary["strategies"][0]["scene_points_used"].get<long>());
+    EXPECT_TRUE(std::filesystem::exists(dir / "demo" / "demo.png"));
+    EXPECT_NE(r.out.find("mfpc"), std::string::npos);
+}
+
+}  // namespace
+}  // namespace mfpc

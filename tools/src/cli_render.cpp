@@ -1,0 +1,240 @@
+#include <charconv>
+#include <filesystem>
+#include <fstream>
+#include <memory>
+#include <sstream>
+#include <string>
+#include <vector>
+
+#include <tbb/global_control.h>
+
+#include "cli_commands.hpp"
+#include "mfpc/core/cloud_io.hpp"
+#include "mfpc/core/error.hpp"
+#include "mfpc/core/foveation_config.hpp"
+#include "mfpc/core/pose.hpp"
+#include "mfpc/recognition/model.hpp"
+#include "mfpc/tools/png_image.hpp"
+#include "mfpc/tools/renderer.hpp"
+
+namespace mfpc::cli {
+
+namespace {
+
+struct RenderOptions {
+    std::string cloud;
+    std::string fovea;
+    std::string result;
+    std::string view = "camera";
+    std::string size;  // "WxH"; empty: the cloud's grid or 640x480
+    float point_radius = 0.0f;
+    std::string output;
+};
+
+// "640x480" -> (640, 480); an error message for anything else.
+std::string parse_size(const std::string& text, std::uint32_t* width, std::uint32_t* height)
+{
+    const auto x = text.find('x');
+    const char* begin = text.data();
+    const char* end = text.data() + text.size();
+    std::uint32_t w = 0, h = 0;
+    if (x == std::string::npos) return "'" + text + "' is not WxH, e.g. 640x480";
+    const auto first = std::from_chars(begin, begin + x, w);
+    const auto second = std::from_chars(begin + x + 1, end, h);
+    if (first.ec != std::errc() || first.ptr != begin + x || second.ec != std::errc() || second.ptr != end) {
+        return "'" + text + "' is not WxH, e.g. 640x480";
+    }
+    if (w < 1 || h < 1 || w > 16384 || h > 16384) return "'" + text + "': each side must be 1..16384 pixels";
+    if (width != nullptr) *width = w;
+    if (height != nullptr) *height = h;
+    return {};
+}
+
+// The instances of a `recognize` result (or a ground truth, which has the same keys): the model's
+// points moved by each instance's transform.
+struct Instances {
+    std::filesystem::path model;
+    std::vector<Pose> transforms;
+};
+
+Instances read_instances(const std::filesystem::path& path)
+{
+    const std::string where = path.string();
+    std::error_code status_error;
+    if (!std::filesystem::exists(path, status_error)) throw Error(where, "no such file");
+    std::ifstream in(path, std::ios::binary);
+    if (!in) throw Error(where, "cannot open (permissions?)");
+    std::stringstream text;
+    text << in.rdbuf();
+    nlohmann::json json;
+    try {
+        json = nlohmann::json::parse(text.str());
+    } catch (const nlohmann::json::exception&) {
+        throw Error(where, "not valid JSON (expected the --json output of `mfpc recognize`)");
+    }
+    if (!json.is_object()) throw Error(where, "not a recognize result: the top level is not an object");
+    if (!json.contains("model") || !json["model"].is_string() || json["model"].get<std::string>().empty())
+        throw Error(where + ": model", "missing or not a file name");
+    if (!json.contains("instances") || !json["instances"].is_array())
+        throw Error(where + ": instances", "missing or not an array");
+
+    Instances instances;
+    const std::filesystem::path model = json["model"].get<std::string>();
+    // As the user ran `recognize`: relative to the current directory; a result moved with its
+    // model (or a ground truth beside its model) also works.
+    if (model.is_absolute() || std::filesystem::exists(model, status_error)) {
+        instances.model = model;
+    } else if (std::filesystem::exists(path.parent_path() / model, status_error)) {
+        instances.model = path.parent_path() / model;
+    } else {
+        throw Error(where + ": model", "'" + model.string() + "' is neither in the current directory nor beside " +
+                                           path.filename().string());
+    }
+    const auto& items = json["instances"];
+    for (std::size_t i = 0; i < items.size(); ++i) {
+        const std::string key = where + ": instances[" + std::to_string(i) + "].transform";
+        if (!items[i].is_object() || !items[i].contains("transform") || !items[i]["transform"].is_array())
+            throw Error(key, "missing or not an array");
+        const auto& values = items[i]["transform"];
+        std::vector<double> numbers;
+        for (const auto& value : values) {
+            if (!value.is_number()) throw Error(key, "holds something that is not a number");
+            numbers.push_back(value.get<double>());
+        }
+        if (numbers.size() != 16) throw Error(key, "needs 16 numbers, has " + std::to_string(numbers.size()));
+        instances.transforms.push_back(pose_from_row_major(numbers, key));
+    }
+    return instances;
+}
+
+std::vector<Point> model_points(const std::filesystem::path& model)
+{
+    if (model.extension() == ".mfpcm") return read_model_cache(model).points;
+    return read_cloud(model).points;
+}
+
+void run_render(const RenderOptions& options, const GlobalOptions& global)
+{
+    // Everything that can be checked before the work is checked first.
+    const std::filesystem::path output = options.output;
+    if (output.extension() != ".png") throw CLI::ValidationError("--output", "the image must end in .png");
+    const std::filesystem::path output_directory = output.parent_path().empty() ? "." : output.parent_path();
+    std::error_code status_error;
+    if (!std::filesystem::is_directory(output_directory, status_error))
+        throw Error(options.output, "directory " + output_directory.string() + " does not exist");
+    RenderParams params;
+    params.view = parse_render_view(options.view);
+    params.point_radius = options.point_radius;
+    if (!options.size.empty()) {
+        const std::string problem = parse_size(options.size, &params.width, &params.height);
+        if (!problem.empty()) throw CLI::ValidationError("--size", problem);
+    }
+
+    Stopwatch clock;
+    Stopwatch total_clock;
+    std::vector<std::string> warnings;
+    FoveationConfig config;
+    if (!options.fovea.empty()) config = read_foveation_config(options.fovea, FoveaPolicy::clamp, &warnings);
+    for (const auto& w : warnings) warn(w);
+    Instances instances;
+    std::vector<RenderOverlay> overlays;
+    if (!options.result.empty()) {
+        instances = read_instances(options.result);
+        const std::vector<Point> model = model_points(instances.model);
+        for (const Pose& transform : instances.transforms) {
+            RenderOverlay overlay;
+            overlay.points.reserve(model.size());
+            for (const Point& p : model) overlay.points.push_back(transform * p);
+            overlays.push_back(std::move(overlay));
+        }
+    }
+    const PointCloud cloud = read_cloud(options.cloud);
+    const double read_ms = clock.lap_ms();
+
+    RenderStats stats;
+    const RgbImage image = render_cloud(cloud, options.fovea.empty() ? nullptr : &config, overlays, params, &stats);
+    const double render_ms = clock.lap_ms();
+    write_png(output, image);
+    const double write_ms = clock.lap_ms();
+    const double total_ms = total_clock.lap_ms();
+
+    if (print_table(global)) {
+        std::vector<std::pair<std::string, std::string>> rows = {
+            {"cloud", options.cloud},
+            {"view", to_string(params.view)},
+            {"image", std::to_string(image.width) + "x" + std::to_string(image.height)},
+            {"points", group_digits(stats.points)},
+            {"point radius", format_fixed(stats.point_radius * 1000.0, 2) + " mm (median)"},
+            {"boxes", std::to_string(stats.boxes) +
+                          (options.fovea.empty() ? std::string() : " (" + std::to_string(config.structures.size()) +
+                                                                       " structures)")},
+            {"instances", std::to_string(instances.transforms.size()) +
+                              (options.result.empty() ? std::string() : " (" + group_digits(stats.overlay_points) +
+                                                                            " model points)")},
+            {"output", options.output},
+            {"time (ms)", "read " + format_fixed(read_ms, 1) + "  render " + format_fixed(render_ms, 1) + "  write " +
+                              format_fixed(write_ms, 1)},
+        };
+        print_rows(rows);
+    }
+    write_json(global, {
+        {"output", options.output},
+        {"cloud", options.cloud},
+        {"view", to_string(params.view)},
+        {"width", image.width},
+        {"height", image.height},
+        {"points", stats.points},
+        {"point_radius_m", stats.point_radius},
+        {"boxes", stats.boxes},
+        {"instances", instances.transforms.size()},
+        {"overlay_points", stats.overlay_points},
+        {"timings_ms", {{"read", read_ms}, {"render", render_ms}, {"write", write_ms}, {"total", total_ms}}},
+        {"threads", tbb::global_control::active_value(tbb::global_control::max_allowed_parallelism)},
+        {"warnings", warnings},
+    });
+}
+
+}  // namespace
+
+void add_render_command(CLI::App& app, const GlobalOptions& global)
+{
+    auto options = std::make_shared<RenderOptions>();
+    CLI::App* command = app.add_subcommand(
+        "render", "Draw a cloud to a PNG as in the paper's figures: points coloured by foveation region, level "
+                  "boxes as wireframes, recognised instances in red");
+    command->add_option("CLOUD", options->cloud, "Cloud to draw (.pcd or .ply), in the sensor's camera frame")
+        ->required();
+    command->add_option("--fovea", options->fovea,
+                        "Foveation config (JSON): colour points by (structure, level) and draw every level box")
+        ->type_name("FOVEA.json");
+    command->add_option("--result", options->result,
+                        "Result of `mfpc recognize --json` (or a ground truth): draw its instances in red")
+        ->type_name("RESULT.json");
+    command->add_option("--view", options->view,
+                        "camera: the sensor's view; top: from above; orbit:DEG: the sensor's view turned DEG "
+                        "degrees about the vertical axis through the cloud's centre")
+        ->check(CLI::Validator(
+            [](std::string& text) {
+                try {
+                    parse_render_view(text);
+                    return std::string();
+                } catch (const Error& error) {
+                    return error.reason();
+                }
+            },
+            "camera|top|orbit:DEG"))
+        ->capture_default_str();
+    command->add_option("--size", options->size,
+                        "Image size (default: the cloud's grid when organized, else 640x480); the field of view "
+                        "stays the same")
+        ->type_name("WxH")
+        ->check(CLI::Validator([](std::string& text) { return parse_size(text, nullptr, nullptr); }, "WxH"));
+    command->add_option("--point-radius", options->point_radius,
+                        "Disc radius in metres (default: 0.8 of each point's spacing)")
+        ->type_name("METRES")
+        ->check(CLI::NonNegativeNumber);
+    command->add_option("-o,--output", options->output, "Image to write (.png)")->type_name("OUT.png")->required();
+    command->callback([options, &global] { run_render(*options, global); });
+}
+
+}  // namespace mfpc::cli
