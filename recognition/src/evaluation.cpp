@@ -65,14 +65,21 @@ Evaluation evaluate(const RecognitionResult& result, const Model& model, const G
         float best = params.instance_translation;
         float nearest = std::numeric_limits<float>::infinity();
         float nearest_angle = std::numeric_limits<float>::quiet_NaN();
-        // The rotation error to a true instance: to the nearest of its equivalent transforms.
+        // The errors to a true instance: to the nearest of its equivalent transforms (the centroid
+        // moves under a turn whose axis misses it).
+        auto distance_to = [&](std::size_t t) {
+            float distance = std::numeric_limits<float>::infinity();
+            for (const Pose& pose : equivalent[t])
+                distance = std::min(distance, (instance.transform * centroid - pose * centroid).norm());
+            return distance;
+        };
         auto angle_to = [&](std::size_t t) {
             float angle = std::numeric_limits<float>::infinity();
             for (const Pose& pose : equivalent[t]) angle = std::min(angle, rotation_error_deg(instance.transform, pose));
             return angle;
         };
         for (std::size_t t = 0; t < truth.instances.size(); ++t) {
-            const float distance = (instance.transform * centroid - truth.instances[t].transform * centroid).norm();
+            const float distance = distance_to(t);
             if (distance < nearest) {
                 nearest = distance;
                 nearest_angle = angle_to(t);
@@ -82,7 +89,7 @@ Evaluation evaluate(const RecognitionResult& result, const Model& model, const G
         out.rotation_error_deg.push_back(nearest_angle);
         for (std::size_t t = 0; t < truth.instances.size(); ++t) {
             if (claimed[t]) continue;
-            const float distance = (instance.transform * centroid - truth.instances[t].transform * centroid).norm();
+            const float distance = distance_to(t);
             if (distance <= best && angle_to(t) <= params.instance_angle_deg) {
                 best = distance;
                 match = int(t);

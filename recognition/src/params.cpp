@@ -166,8 +166,7 @@ void check_recognition_params(const RecognitionParams& p, const std::string& sou
     check_positive(p.verify.inlier_distance, source, "verify.inlier_distance");
     check_fraction(p.verify.min_inlier_fraction, source, "verify.min_inlier_fraction");
     check_fraction(p.verify.min_coverage, source, "verify.min_coverage");
-    if (!(p.verify.min_inlier_thickness >= 0.0f) || !std::isfinite(p.verify.min_inlier_thickness))
-        throw Error(source + ": verify.min_inlier_thickness", "must be 0 or positive");
+    check_fraction(p.verify.min_thickness_ratio, source, "verify.min_thickness_ratio");
     check_positive(p.verify.free_space_margin, source, "verify.free_space_margin");
     check_fraction(p.verify.max_free_space_fraction, source, "verify.max_free_space_fraction");
     check_positive(p.verify.merge_distance, source, "verify.merge_distance");
@@ -215,7 +214,7 @@ RecognitionParams parse_recognition_params(std::string_view json_text, const std
             q.number("inlier_distance", p.verify.inlier_distance);
             q.number("min_inlier_fraction", p.verify.min_inlier_fraction);
             q.number("min_coverage", p.verify.min_coverage);
-            q.number("min_inlier_thickness", p.verify.min_inlier_thickness);
+            q.number("min_thickness_ratio", p.verify.min_thickness_ratio);
             q.number("free_space_margin", p.verify.free_space_margin);
             q.number("max_free_space_fraction", p.verify.max_free_space_fraction);
             q.boolean("merge", p.verify.merge);
@@ -263,7 +262,7 @@ std::string to_json(const RecognitionParams& p)
           {"inlier_distance", clean(p.verify.inlier_distance)},
           {"min_inlier_fraction", clean(p.verify.min_inlier_fraction)},
           {"min_coverage", clean(p.verify.min_coverage)},
-          {"min_inlier_thickness", clean(p.verify.min_inlier_thickness)},
+          {"min_thickness_ratio", clean(p.verify.min_thickness_ratio)},
           {"free_space_margin", clean(p.verify.free_space_margin)},
           {"max_free_space_fraction", clean(p.verify.max_free_space_fraction)},
           {"merge", p.verify.merge},

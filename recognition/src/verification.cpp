@@ -23,6 +23,34 @@ bool faces_camera(const Pose& pose, const Point& p, const Point& normal)
     return normal.allFinite() && (pose.linear() * normal).dot(-p) > 0.0f;
 }
 
+// Thinner than this, the side of a model turned to the sensor is flat (metres).
+constexpr float flat_side = 0.002f;
+
+// The spread of points off their best plane: the square root of the smallest eigenvalue of their
+// covariance.
+struct Spread {
+    Eigen::Vector3d sum = Eigen::Vector3d::Zero();
+    Eigen::Matrix3d products = Eigen::Matrix3d::Zero();
+    std::size_t count = 0;
+
+    void add(const Point& p)
+    {
+        const Eigen::Vector3d q = p.cast<double>();
+        sum += q;
+        products += q * q.transpose();
+        ++count;
+    }
+    float thickness() const
+    {
+        if (count < 3) return 0.0f;
+        const Eigen::Vector3d mean = sum / double(count);
+        const Eigen::Matrix3d covariance = products / double(count) - mean * mean.transpose();
+        const double smallest =
+            Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d>(covariance, Eigen::EigenvaluesOnly).eigenvalues()[0];
+        return float(std::sqrt(std::max(smallest, 0.0)));
+    }
+};
+
 struct Fit {
     Pose pose;
     float rmse = 0.0f;
@@ -119,8 +147,7 @@ std::vector<Instance> refine_and_verify(std::vector<Instance> instances, std::sp
         }
         if (!verify.enabled) return;
         std::size_t facing = 0, visible = 0, inliers = 0, projected = 0, violations = 0;
-        Eigen::Vector3d sum = Eigen::Vector3d::Zero();
-        Eigen::Matrix3d products = Eigen::Matrix3d::Zero();
+        Spread facing_spread, inlier_spread;
         for (std::size_t i = 0; i < points.size(); ++i) {
             const Point p = instance.transform * points[i];
             // Free space, for every model point whichever way its surface faces: a solid object
@@ -142,6 +169,7 @@ std::vector<Instance> refine_and_verify(std::vector<Instance> instances, std::sp
             }
             if (!faces_camera(instance.transform, p, normals[i])) continue;
             ++facing;
+            facing_spread.add(p);
             // Fitness, over the points the sensor could have seen: facing it, and not hidden.
             if (hidden) continue;
             ++visible;
@@ -149,18 +177,13 @@ std::vector<Instance> refine_and_verify(std::vector<Instance> instances, std::sp
             float d2 = 0.0f;
             if (scene.grid->nearest(p, verify.inlier_distance, nearest, d2)) {
                 ++inliers;
-                const Eigen::Vector3d q = p.cast<double>();
-                sum += q;
-                products += q * q.transpose();
+                inlier_spread.add(p);
             }
         }
-        if (inliers >= 3) {
-            const Eigen::Vector3d mean = sum / double(inliers);
-            const Eigen::Matrix3d covariance = products / double(inliers) - mean * mean.transpose();
-            const double smallest = Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d>(covariance, Eigen::EigenvaluesOnly)
-                                        .eigenvalues()[0];
-            instance.inlier_thickness = float(std::sqrt(std::max(smallest, 0.0)));
-        }
+        // A side of the model that is itself flat (a box seen face on) cannot be told from a face
+        // laid on a table by its shape: the test passes it.
+        const float facing_thickness = facing_spread.thickness();
+        instance.thickness_ratio = facing_thickness < flat_side ? 1.0f : inlier_spread.thickness() / facing_thickness;
         instance.fitness = visible ? float(inliers) / float(visible) : 0.0f;
         instance.coverage = facing ? float(inliers) / float(facing) : 0.0f;
         instance.free_space_violation = projected ? float(violations) / float(projected) : 0.0f;
@@ -171,7 +194,7 @@ std::vector<Instance> refine_and_verify(std::vector<Instance> instances, std::sp
     for (auto& instance : instances)
         if (instance.fitness >= verify.min_inlier_fraction && instance.coverage >= verify.min_coverage &&
             instance.free_space_violation <= verify.max_free_space_fraction &&
-            instance.inlier_thickness >= verify.min_inlier_thickness)
+            instance.thickness_ratio >= verify.min_thickness_ratio)
             accepted.push_back(std::move(instance));
     if (!verify.merge) return accepted;
     // Duplicates: two solid objects cannot share space, so an instance whose placed model overlaps

@@ -156,7 +156,7 @@ void run_recognize(const RecognizeOptions& options, const GlobalOptions& global)
                                        {"fitness", instance.fitness},
                                        {"coverage", instance.coverage},
                                        {"free_space_violation", instance.free_space_violation},
-                                       {"inlier_thickness", instance.inlier_thickness},
+                                       {"thickness_ratio", instance.thickness_ratio},
                                        {"rmse", instance.rmse}};
         if (evaluation) {
             item["ground_truth_instance"] = evaluation->instance_match[i];

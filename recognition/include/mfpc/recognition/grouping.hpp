@@ -17,7 +17,7 @@ struct Instance {
     float fitness = 0.0f;                        // after verification: inlier fraction (0 when not verified)
     float coverage = 0.0f;                      // inlier model points / model points facing the camera
     float free_space_violation = 0.0f;
-    float inlier_thickness = 0.0f;               // spread of the fitting points off their best plane (metres)
+    float thickness_ratio = 0.0f;                // fitting points' spread off their best plane / the facing side's
     float rmse = 0.0f;                           // of the refined fit (metres)
 };
 

@@ -21,7 +21,7 @@ struct Model {
 };
 
 // The centroid of the model's points: where an instance's transform puts the object (its
-// translation moves the model's sensor origin, a metre or two away).
+// translation moves the model's origin, which for a scanned view is its sensor, a metre or two away).
 Point model_centroid(const Model& model);
 
 // Normals are estimated (k = normal_k) and face the sensor at the origin, as for a scanned view;

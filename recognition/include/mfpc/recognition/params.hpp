@@ -59,13 +59,13 @@ struct RefineParams {
 struct VerifyParams {
     bool enabled = true;
     float inlier_distance = 0.005f;      // a model point fits when a scene point is this close
-    float min_inlier_fraction = 0.4f;    // of the model points that face the camera
+    float min_inlier_fraction = 0.4f;    // of the model points the sensor could see (facing it, not hidden)
     float min_coverage = 0.6f;           // inliers / model points facing the camera: how much of that side the scene explains
-    // The fitting model points must not all lie on one plane: the square root of the smallest
-    // eigenvalue of their covariance (metres). A model face laid flush on a table fits it
-    // perfectly, and the rest of the model, under the table, is hidden, so neither fitness nor
-    // free space can refute it (measured: 2 to 4 mm on such, 18 to 21 mm on true cartons).
-    float min_inlier_thickness = 0.005f;
+    // The fitting model points must be about as far from flat as the whole side of the model turned
+    // to the sensor: their thickness (spread off their best plane) over that side's. A model face
+    // laid flush on a table fits it perfectly while the rest of the model, under the table, is
+    // hidden, so neither fitness nor free space refutes it. A flat side (under 2 mm) passes.
+    float min_thickness_ratio = 0.5f;
     float free_space_margin = 0.01f;     // a model point this far in front of the observed surface
     float max_free_space_fraction = 0.1f;  // ... on this fraction of points rejects the instance
     bool merge = true;                   // merge instances whose placed models overlap:

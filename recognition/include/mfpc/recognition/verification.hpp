@@ -29,8 +29,8 @@ SceneEvidence make_scene_evidence(const PointCloud& scene, const NeighborGrid& g
 // inlier_distance; the coverage: inliers over all the model points facing the sensor, hidden or
 // not (how much of the side of the model turned to the sensor the scene explains: for a model
 // sampled all around an object, its back can never be seen, so it does not count); and the
-// thickness of the fitting points (off their best plane: a model face flush on a table is no
-// evidence of the object); and the free-space violation: the fraction of all model points projecting onto
+// thickness ratio (the fitting points' spread off their best plane over the facing side's: a model
+// face flush on a table is no evidence of the object); and the free-space violation: the fraction of all model points projecting onto
 // an observed pixel whose surface lies more than free_space_margin behind them (a solid object there
 // would have stopped the ray, so it cannot be there). Instances failing the limits are dropped; duplicates
 // (placed models overlapping: merge_overlap of one's points within merge_distance of the other's)
