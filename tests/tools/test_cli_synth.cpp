@@ -55,8 +55,19 @@ TEST(CliSynth, BadInputIsOneLine)
     expect_one_line_error(run("synth --objects 0 --distractors 0" + out), 1, "nothing to place");
     expect_one_line_error(run("synth --max-incidence 120" + out), 1, "bad sensor");
     expect_one_line_error(run("synth --min-range 5 --max-range 4" + out), 1, "empty range");
+    expect_one_line_error(run("synth --model-spacing 0.5" + out), 1, "coarse model spacing");
+    expect_one_line_error(run("synth -o " + quoted(dir.write("a_file", "x"))), 1, "output is a file");
     expect_one_line_error(run("demo --object cup -o " + quoted(dir / "demo")), 2, "demo of an unknown object");
+    expect_one_line_error(run("demo -o " + quoted(dir / "a_file")), 1, "demo output is a file");
+    expect_one_line_error(run("render x.pcd --point-radius 5 -o " + quoted(dir / "x.png")), 2, "huge disc radius");
+    expect_one_line_error(run("render x.pcd --point-radius nan -o " + quoted(dir / "x.png")), 2, "NaN disc radius");
     EXPECT_FALSE(std::filesystem::exists(dir / "out" / "scene.pcd"));
+
+    // No instances: no fovea to write, and the rest of the dataset is there.
+    const Result empty = run("synth --objects 0 --distractors 2 --resolution 160x120" + out);
+    ASSERT_EQ(empty.exit_code, 0) << empty.err;
+    EXPECT_TRUE(std::filesystem::exists(dir / "out" / "scene.pcd"));
+    EXPECT_FALSE(std::filesystem::exists(dir / "out" / "fovea.json"));
 }
 
 TEST(CliSynth, PlacesAScannedCloudModel)

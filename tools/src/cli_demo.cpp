@@ -39,6 +39,7 @@ void run_demo(const DemoOptions& options, const GlobalOptions& global)
     if (!is_builtin_object(options.object))
         throw CLI::ValidationError("--object", "'" + options.object + "' is not a built-in object");
     const std::filesystem::path directory(options.output);
+    prepare_output_directory(directory);
     Stopwatch clock;
     progress(global, "synthesizing a tabletop scene (seed " + std::to_string(options.seed) +
                          ") and describing the " + options.object + " from 16 views");
@@ -57,19 +58,7 @@ void run_demo(const DemoOptions& options, const GlobalOptions& global)
     const double synth_ms = clock.lap_ms();
     const Model& model = dataset.model;
 
-    GroundTruth truth;
-    truth.model = options.object + ".pcd";
-    const Pose world_to_camera = dataset.scene.camera.inverse();
-    for (std::size_t i = 0; i < dataset.scene.objects.size(); ++i) {
-        const SceneObject& object = dataset.scene.objects[i];
-        if (object.distractor) continue;
-        GroundTruthInstance instance;
-        instance.transform = world_to_camera * object.pose;
-        instance.object = options.object;
-        instance.visible_points = long(dataset.scan.visible_points[i]);
-        instance.symmetry_order = dataset.scene.shapes[0].symmetry_order;
-        truth.instances.push_back(instance);
-    }
+    const GroundTruth truth = ground_truth_of(dataset);
 
     std::vector<StrategyRun> runs;
     for (const char* name : {"plain", "mfpc"}) {
@@ -97,11 +86,11 @@ void run_demo(const DemoOptions& options, const GlobalOptions& global)
 
     nlohmann::ordered_json strategies = nlohmann::ordered_json::array();
     for (const StrategyRun& run : runs) {
-        const RecognitionCounts& c = run.result.counts;
+        const RecognitionCounts& counts = run.result.counts;
         strategies.push_back({{"strategy", run.name},
-                              {"scene_points_used", c.scene_points_used},
-                              {"scene_keypoints", c.scene_keypoints},
-                              {"correspondences", c.correspondences},
+                              {"scene_points_used", counts.scene_points_used},
+                              {"scene_keypoints", counts.scene_keypoints},
+                              {"correspondences", counts.correspondences},
                               {"instances_true", run.evaluation.instances_true},
                               {"instances_false", run.evaluation.instances_false},
                               {"instances_missed", run.evaluation.instances_missed},
@@ -120,10 +109,10 @@ void run_demo(const DemoOptions& options, const GlobalOptions& global)
                       "keypoints", "correspondences", "found", "false", "missed", "time (ms)");
         std::cout << line;
         for (const StrategyRun& run : runs) {
-            const RecognitionCounts& c = run.result.counts;
+            const RecognitionCounts& counts = run.result.counts;
             std::snprintf(line, sizeof line, "%-9s %12s %10s %16s %5zu/%zu %6zu %7zu %10.1f\n", run.name,
-                          group_digits(c.scene_points_used).c_str(), group_digits(c.scene_keypoints).c_str(),
-                          group_digits(c.correspondences).c_str(), run.evaluation.instances_true, truth.instances.size(),
+                          group_digits(counts.scene_points_used).c_str(), group_digits(counts.scene_keypoints).c_str(),
+                          group_digits(counts.correspondences).c_str(), run.evaluation.instances_true, truth.instances.size(),
                           run.evaluation.instances_false, run.evaluation.instances_missed, run.result.timings.total);
             std::cout << line;
         }

@@ -1,4 +1,5 @@
-#include <charconv>
+#include <cmath>
+#include <cstdlib>
 #include <filesystem>
 #include <fstream>
 #include <memory>
@@ -30,25 +31,6 @@ struct RenderOptions {
     float point_radius = 0.0f;
     std::string output;
 };
-
-// "640x480" -> (640, 480); an error message for anything else.
-std::string parse_size(const std::string& text, std::uint32_t* width, std::uint32_t* height)
-{
-    const auto x = text.find('x');
-    const char* begin = text.data();
-    const char* end = text.data() + text.size();
-    std::uint32_t w = 0, h = 0;
-    if (x == std::string::npos) return "'" + text + "' is not WxH, e.g. 640x480";
-    const auto first = std::from_chars(begin, begin + x, w);
-    const auto second = std::from_chars(begin + x + 1, end, h);
-    if (first.ec != std::errc() || first.ptr != begin + x || second.ec != std::errc() || second.ptr != end) {
-        return "'" + text + "' is not WxH, e.g. 640x480";
-    }
-    if (w < 1 || h < 1 || w > 16384 || h > 16384) return "'" + text + "': each side must be 1..16384 pixels";
-    if (width != nullptr) *width = w;
-    if (height != nullptr) *height = h;
-    return {};
-}
 
 // The instances of a `recognize` result (or a ground truth, which has the same keys): the model's
 // points moved by each instance's transform.
@@ -125,10 +107,7 @@ void run_render(const RenderOptions& options, const GlobalOptions& global)
     RenderParams params;
     params.view = parse_render_view(options.view);
     params.point_radius = options.point_radius;
-    if (!options.size.empty()) {
-        const std::string problem = parse_size(options.size, &params.width, &params.height);
-        if (!problem.empty()) throw CLI::ValidationError("--size", problem);
-    }
+    if (!options.size.empty()) std::tie(params.width, params.height) = parse_size(options.size, "--size");
 
     Stopwatch clock;
     Stopwatch total_clock;
@@ -211,8 +190,8 @@ void add_render_command(CLI::App& app, const GlobalOptions& global)
                         "Result of `mfpc recognize --json` (or a ground truth): draw its instances in red")
         ->type_name("RESULT.json");
     command->add_option("--view", options->view,
-                        "camera: the sensor's view; top: from above; orbit:DEG: the sensor's view turned DEG "
-                        "degrees about the vertical axis through the cloud's centre")
+                        "camera: the sensor's view; top: from the sensor's up (-y) side; orbit:DEG: the sensor's view "
+                        "turned DEG degrees about its y axis through the cloud's centre")
         ->check(CLI::Validator(
             [](std::string& text) {
                 try {
@@ -225,14 +204,20 @@ void add_render_command(CLI::App& app, const GlobalOptions& global)
             "camera|top|orbit:DEG"))
         ->capture_default_str();
     command->add_option("--size", options->size,
-                        "Image size (default: the cloud's grid when organized, else 640x480); the field of view "
-                        "stays the same")
-        ->type_name("WxH")
-        ->check(CLI::Validator([](std::string& text) { return parse_size(text, nullptr, nullptr); }, "WxH"));
+                        "Image size (default: the cloud's grid when organized, else 640x480); pixels stay square and "
+                        "the whole view stays in the picture")
+        ->type_name("WxH");
+    // A disc as large as the scene would make every ray test every point: a hang, not a picture.
     command->add_option("--point-radius", options->point_radius,
-                        "Disc radius in metres (default: 0.8 of each point's spacing)")
+                        "Disc radius in metres, up to 0.1 (default: 0.8 of each point's spacing)")
         ->type_name("METRES")
-        ->check(CLI::NonNegativeNumber);
+        ->check(CLI::Validator(
+            [](std::string& text) {
+                const float value = std::strtof(text.c_str(), nullptr);
+                return std::isfinite(value) && value >= 0.0f && value <= 0.1f ? std::string()
+                                                                              : "must be a number in 0..0.1 (metres)";
+            },
+            "0..0.1"));
     command->add_option("-o,--output", options->output, "Image to write (.png)")->type_name("OUT.png")->required();
     command->callback([options, &global] { run_render(*options, global); });
 }

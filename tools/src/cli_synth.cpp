@@ -47,6 +47,8 @@ void run_synth(SynthOptions options, const GlobalOptions& global)
     std::tie(options.sensor.width, options.sensor.height) = parse_size(options.resolution, "--resolution");
     const Eigen::Vector3f up = parse_axis(options.up);
     check_sensor(options.sensor);
+    check_model_spacing(options.model_spacing);
+    prepare_output_directory(options.output);
 
     Stopwatch clock;
     std::vector<SceneShape> shapes;
@@ -112,40 +114,41 @@ void add_synth_command(CLI::App& app, const GlobalOptions& global)
     command->footer(
         "Writes into DIR: scene.pcd (organized, camera frame), scene.gt.json (shared ground-truth format),\n"
         "labels.png (16-bit label per pixel: 0 none, 1 table, 2+i object i), scene.json (everything),\n"
-        "fovea.json (one foveated structure per instance) and one model cloud <shape>.pcd per shape.\n"
+        "fovea.json (one foveated structure per instance), one model cloud <shape>.pcd per shape and\n"
+        "<object>.mfpcm, the object's model cache described from 16 views, for `mfpc recognize`.\n"
         "The same seed gives the same bytes on any thread count.");
-    auto& o = *options;
-    command->add_option("--seed", o.compose.seed, "Seed of the placement, the camera and the sensor noise")
+    auto& settings = *options;
+    command->add_option("--seed", settings.compose.seed, "Seed of the placement, the camera and the sensor noise")
         ->capture_default_str();
-    command->add_option("--objects", o.compose.objects, "Instances of the object to recognise")
+    command->add_option("--objects", settings.compose.objects, "Instances of the object to recognise")
         ->check(CLI::Range(0, 1000))
         ->capture_default_str();
-    command->add_option("--distractors", o.compose.distractors, "Other objects among them")
+    command->add_option("--distractors", settings.compose.distractors, "Other objects among them")
         ->check(CLI::Range(0, 1000))
         ->capture_default_str();
-    command->add_option("--resolution", o.resolution, "Sensor image size WIDTHxHEIGHT (up to 16384x16384)")
+    command->add_option("--resolution", settings.resolution, "Sensor image size WIDTHxHEIGHT (up to 16384x16384)")
         ->capture_default_str();
-    command->add_option("--object", o.object,
+    command->add_option("--object", settings.object,
                         "The object: carton, bottle, mug, box, jug, or a mesh (.ply, .obj) or cloud (.pcd) file")
         ->capture_default_str();
-    command->add_option("--distractor-objects", o.distractor_objects,
+    command->add_option("--distractor-objects", settings.distractor_objects,
                         "Comma-separated distractor shapes (default: the built-ins other than --object)");
-    command->add_option("--up", o.up, "Up axis of a .pcd object in its own frame: x, -x, y, -y, z, -z")
+    command->add_option("--up", settings.up, "Up axis of a .pcd object in its own frame: x, -x, y, -y, z, -z")
         ->capture_default_str();
-    command->add_option("--focal", o.sensor.focal_length, "Focal length in pixels (0: 525 scaled by width/640)")
+    command->add_option("--focal", settings.sensor.focal_length, "Focal length in pixels (0: 525 scaled by width/640)")
         ->capture_default_str();
-    command->add_option("--noise", o.sensor.noise_at_1m, "Depth noise sigma at 1 m in metres, growing with z^2 (0: none)")
+    command->add_option("--noise", settings.sensor.noise_at_1m, "Depth noise sigma at 1 m in metres, growing with z^2 (0: none)")
         ->capture_default_str();
-    command->add_option("--subpixel", o.sensor.disparity_subpixel, "Disparity quantization steps per pixel (0: none)")
+    command->add_option("--subpixel", settings.sensor.disparity_subpixel, "Disparity quantization steps per pixel (0: none)")
         ->capture_default_str();
-    command->add_option("--max-incidence", o.sensor.max_incidence_deg,
+    command->add_option("--max-incidence", settings.sensor.max_incidence_deg,
                         "No return beyond this angle between ray and surface normal (degrees)")
         ->capture_default_str();
-    command->add_option("--min-range", o.sensor.min_range, "Nearest depth with a return (metres)")->capture_default_str();
-    command->add_option("--max-range", o.sensor.max_range, "Farthest depth with a return (metres)")->capture_default_str();
-    command->add_option("--model-spacing", o.model_spacing, "Point spacing of the written model clouds (metres)")
+    command->add_option("--min-range", settings.sensor.min_range, "Nearest depth with a return (metres)")->capture_default_str();
+    command->add_option("--max-range", settings.sensor.max_range, "Farthest depth with a return (metres)")->capture_default_str();
+    command->add_option("--model-spacing", settings.model_spacing, "Point spacing of the mesh model clouds, 0.0005..0.01 (metres)")
         ->capture_default_str();
-    command->add_option("-o,--output", o.output, "Output directory (created if missing)")->required()->type_name("DIR");
+    command->add_option("-o,--output", settings.output, "Output directory (created if missing)")->required()->type_name("DIR");
     command->callback([options, &global] { run_synth(*options, global); });
 }
 

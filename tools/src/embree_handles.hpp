@@ -17,11 +17,17 @@ struct DeviceDeleter {
 struct SceneDeleter {
     void operator()(RTCScene scene) const { rtcReleaseScene(scene); }
 };
+struct GeometryDeleter {
+    void operator()(RTCGeometry geometry) const { rtcReleaseGeometry(geometry); }
+};
 using Device = std::unique_ptr<RTCDeviceTy, DeviceDeleter>;
 using Scene = std::unique_ptr<RTCSceneTy, SceneDeleter>;
+// Held until attached to a scene (which keeps its own reference), so a throw on the way leaks nothing.
+using Geometry = std::unique_ptr<RTCGeometryTy, GeometryDeleter>;
 
-// A device whose errors become mfpc::Error (thrown from the call that failed, after Embree
-// returns), so a failed allocation or a bad buffer is one error line, not a silent miss.
+// Embree records an error per thread; check() turns the calling thread's into mfpc::Error, so the
+// scene building (all on the caller's thread) fails with one line, not a silent miss. Ray queries
+// on worker threads record none for a committed scene.
 Device make_device();
 Scene make_scene(RTCDevice device);
 

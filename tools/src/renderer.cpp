@@ -39,10 +39,7 @@ constexpr float edge_width_px = 1.5f;
 // 1/sqrt(2) = 0.71) with a little overlap and without fattening edges much.
 constexpr float radius_per_spacing = 0.8f;
 
-struct GeometryDeleter {
-    void operator()(RTCGeometry geometry) const { rtcReleaseGeometry(geometry); }
-};
-using Geometry = std::unique_ptr<RTCGeometryTy, GeometryDeleter>;
+using embree::Geometry;
 
 // ---- colours -----------------------------------------------------------------------------------
 
@@ -342,14 +339,16 @@ Camera sensor_intrinsics(const PointCloud& cloud, const std::optional<Camera>& f
         }
     }
     if (params.width == 0 || (params.width == camera.width && params.height == camera.height)) return camera;
-    // Same field of view at another resolution; pixel centres sit at integers, so the edges of the
-    // image (at -0.5 and width - 0.5) are what scale.
+    // Another resolution: one scale for both axes keeps pixels square, the smaller one keeps the
+    // whole original view in the picture, and the principal point moves with the image centre.
+    // Pixel centres sit at integers, so the edges of the image (at -0.5 and width - 0.5) are what scale.
     const float sx = float(params.width) / float(camera.width);
     const float sy = float(params.height) / float(camera.height);
-    camera.fx *= sx;
-    camera.fy *= sy;
-    camera.cx = (camera.cx + 0.5f) * sx - 0.5f;
-    camera.cy = (camera.cy + 0.5f) * sy - 0.5f;
+    const float scale = std::min(sx, sy);
+    camera.fx *= scale;
+    camera.fy *= scale;
+    camera.cx = (camera.cx + 0.5f) * scale - 0.5f + 0.5f * (float(params.width) - scale * float(camera.width));
+    camera.cy = (camera.cy + 0.5f) * scale - 0.5f + 0.5f * (float(params.height) - scale * float(camera.height));
     camera.width = params.width;
     camera.height = params.height;
     camera.max_residual = 0.0f;

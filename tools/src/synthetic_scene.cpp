@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <numbers>
+#include <limits>
 #include <random>
 
 #include <nlohmann/json.hpp>
@@ -34,12 +35,15 @@ std::string lower_extension(const std::filesystem::path& path)
     return extension;
 }
 
-// Shape names become file names: keep them to a safe alphabet.
+// Shape names become file names: keep them to a safe alphabet, and off the names of the dataset's
+// own files (a mesh named scene.ply must not have its model overwritten by the scan).
 std::string file_safe(const std::string& name)
 {
     std::string safe = name.empty() ? std::string("object") : name;
     for (char& c : safe)
         if (!(std::isalnum(static_cast<unsigned char>(c)) || c == '-' || c == '_' || c == '.')) c = '_';
+    for (const char* reserved : {"scene", "labels", "fovea", "scene.gt"})
+        if (safe == reserved) safe += "_model";
     return safe;
 }
 
@@ -179,6 +183,8 @@ SyntheticScene compose_scene(std::vector<SceneShape> shapes, const ComposeParams
 
     SyntheticScene scene;
     scene.shapes = std::move(shapes);
+    // libstdc++'s distributions: the same seed gives the same scene with the same standard library
+    // (as the procedural scene of foveate --procedural).
     std::mt19937 rng(params.seed);
     auto uniform = [&](double lo, double hi) { return std::uniform_real_distribution<double>(lo, hi)(rng); };
 
@@ -292,33 +298,71 @@ SyntheticDataset make_synthetic_dataset(std::vector<SceneShape> shapes, const Co
                                         const SensorParams& sensor, float model_spacing, const FeatureParams& features)
 {
     check_sensor(sensor);
-    if (!(model_spacing > 0) || !std::isfinite(model_spacing))
-        throw Error("synth", "the model spacing must be positive");
+    check_model_spacing(model_spacing);
     SyntheticDataset dataset;
     dataset.seed = compose.seed;
     dataset.sensor = sensor;
     dataset.scene = compose_scene(std::move(shapes), compose);
+    // A crowded table moves the camera back; past the sensor's range the scan would be empty.
+    float nearest = std::numeric_limits<float>::infinity();
+    for (const SceneObject& object : dataset.scene.objects)
+        nearest = std::min(nearest, (dataset.scene.camera.translation() - object.pose.translation()).norm());
+    if (nearest > sensor.max_range)
+        throw Error("synth", "the objects need the camera " + std::to_string(nearest) + " m away, beyond max_range " +
+                                 std::to_string(sensor.max_range) + " m: place fewer objects or raise max_range");
     dataset.scan = scan_scene(dataset.scene, sensor, compose.seed);
     dataset.fovea = fovea_per_instance(dataset.scene);
     for (const SceneShape& shape : dataset.scene.shapes) {
         // A fixed sampling seed: a shape's model cloud is the same file in every scene.
         dataset.models.push_back(shape.mesh.empty() ? shape.discs : sample_surface(shape.mesh, model_spacing, 1));
     }
+    // The views keep the scene's noise model, at VGA (they need not follow a scaling study's
+    // resolution) and the default range, which their 1 m distance lies in whatever the scene's.
     ViewModelParams views;
-    views.sensor = sensor;
-    views.sensor.width = 640;  // the views need not follow a scaling study's resolution
-    views.sensor.height = 480;
-    views.sensor.focal_length = 0;
+    views.sensor.noise_at_1m = sensor.noise_at_1m;
+    views.sensor.baseline = sensor.baseline;
+    views.sensor.disparity_subpixel = sensor.disparity_subpixel;
+    views.sensor.max_incidence_deg = sensor.max_incidence_deg;
     dataset.model = prepare_view_model(dataset.scene.shapes[0], dataset.models[0], features, views);
     dataset.model.source = file_safe(dataset.scene.shapes[0].name) + ".pcd";
     return dataset;
 }
 
-void write_synthetic_dataset(const std::filesystem::path& directory, const SyntheticDataset& dataset)
+void check_model_spacing(float spacing)
+{
+    if (!(spacing >= 0.0005f && spacing <= 0.01f))
+        throw Error("model spacing", "must lie in 0.0005..0.01 m (coarser models leave too few points to verify)");
+}
+
+void prepare_output_directory(const std::filesystem::path& directory)
 {
     std::error_code error;
     std::filesystem::create_directories(directory, error);
-    if (error) throw Error(directory.string(), "cannot create the directory: " + error.message());
+    if (error || !std::filesystem::is_directory(directory, error))
+        throw Error(directory.string(), "cannot create the directory" + (error ? ": " + error.message() : std::string()));
+}
+
+GroundTruth ground_truth_of(const SyntheticDataset& dataset)
+{
+    GroundTruth truth;
+    truth.model = file_safe(dataset.scene.shapes.at(0).name) + ".pcd";
+    const Pose world_to_camera = dataset.scene.camera.inverse();
+    for (std::size_t i = 0; i < dataset.scene.objects.size(); ++i) {
+        const SceneObject& object = dataset.scene.objects[i];
+        if (object.distractor) continue;
+        GroundTruthInstance instance;
+        instance.transform = world_to_camera * object.pose;
+        instance.object = dataset.scene.shapes[object.shape].name;
+        instance.visible_points = long(dataset.scan.visible_points[i]);
+        instance.symmetry_order = dataset.scene.shapes[object.shape].symmetry_order;
+        truth.instances.push_back(instance);
+    }
+    return truth;
+}
+
+void write_synthetic_dataset(const std::filesystem::path& directory, const SyntheticDataset& dataset)
+{
+    prepare_output_directory(directory);
 
     const SyntheticScene& scene = dataset.scene;
     const Scan& scan = dataset.scan;
@@ -337,18 +381,17 @@ void write_synthetic_dataset(const std::filesystem::path& directory, const Synth
 
     const Pose world_to_camera = scene.camera.inverse();
     nlohmann::ordered_json truth_instances = nlohmann::ordered_json::array();
+    for (const GroundTruthInstance& truth : ground_truth_of(dataset).instances) {
+        nlohmann::ordered_json instance = {{"transform", pose_json(truth.transform)},
+                                           {"object", truth.object},
+                                           {"visible_points", truth.visible_points}};
+        if (truth.symmetry_order != 1) instance["symmetry"] = {{"axis", {0, 0, 1}}, {"order", truth.symmetry_order}};
+        truth_instances.push_back(instance);
+    }
     nlohmann::ordered_json objects = nlohmann::ordered_json::array();
     for (std::size_t i = 0; i < scene.objects.size(); ++i) {
         const SceneObject& object = scene.objects[i];
         const Pose transform = world_to_camera * object.pose;
-        if (!object.distractor) {
-            nlohmann::ordered_json instance = {{"transform", pose_json(transform)},
-                                               {"object", scene.shapes[object.shape].name},
-                                               {"visible_points", scan.visible_points[i]}};
-            if (scene.shapes[object.shape].symmetry_order != 1)
-                instance["symmetry"] = {{"axis", {0, 0, 1}}, {"order", scene.shapes[object.shape].symmetry_order}};
-            truth_instances.push_back(instance);
-        }
         objects.push_back({{"label", label_first_object + i},
                            {"shape", scene.shapes[object.shape].name},
                            {"model", model_files[object.shape]},
@@ -375,7 +418,9 @@ void write_synthetic_dataset(const std::filesystem::path& directory, const Synth
         {"points", scan.cloud.size()},
         {"objects", objects}};
     write_json_file(directory / "scene.json", manifest);
-    write_file_atomically(directory / "fovea.json", [&](std::ofstream& out) { out << to_json(dataset.fovea) << '\n'; });
+    // A scene without instances has no fovea to place, and a config needs one structure.
+    if (!dataset.fovea.structures.empty())
+        write_file_atomically(directory / "fovea.json", [&](std::ofstream& out) { out << to_json(dataset.fovea) << '\n'; });
 }
 
 }  // namespace mfpc

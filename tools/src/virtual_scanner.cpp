@@ -104,10 +104,9 @@ VirtualScanner::VirtualScanner(const SyntheticScene& scene) : impl_(std::make_un
 
     // Geometry IDs are label - 1: the plane is 0, object i is i + 1, so a hit's label is geomID + 1.
     const Pose world_to_camera = scene.camera.inverse();
-    auto attach = [&](RTCGeometry geometry, unsigned id, const std::string& what) {
-        rtcCommitGeometry(geometry);
-        rtcAttachGeometryByID(rtc_scene, geometry, id);
-        rtcReleaseGeometry(geometry);
+    auto attach = [&](embree::Geometry geometry, unsigned id, const std::string& what) {
+        rtcCommitGeometry(geometry.get());
+        rtcAttachGeometryByID(rtc_scene, geometry.get(), id);
         embree::check(device, what);
     };
 
@@ -119,9 +118,9 @@ VirtualScanner::VirtualScanner(const SyntheticScene& scene) : impl_(std::make_un
                                             world_to_camera * Eigen::Vector3f(hx, hy, 0),
                                             world_to_camera * Eigen::Vector3f(-hx, hy, 0)};
         const Eigen::Vector3i triangles[2] = {{0, 1, 2}, {0, 2, 3}};
-        RTCGeometry geometry = rtcNewGeometry(device, RTC_GEOMETRY_TYPE_TRIANGLE);
-        set_triangles(device, geometry, corners, triangles);
-        attach(geometry, 0, "support plane");
+        embree::Geometry geometry(rtcNewGeometry(device, RTC_GEOMETRY_TYPE_TRIANGLE));
+        set_triangles(device, geometry.get(), corners, triangles);
+        attach(std::move(geometry), 0, "support plane");
     }
 
     for (std::size_t i = 0; i < scene.objects.size(); ++i) {
@@ -135,17 +134,17 @@ VirtualScanner::VirtualScanner(const SyntheticScene& scene) : impl_(std::make_un
         if (!shape.mesh.empty()) {
             std::vector<Eigen::Vector3f> vertices(shape.mesh.vertices.size());
             for (std::size_t v = 0; v < vertices.size(); ++v) vertices[v] = to_camera * shape.mesh.vertices[v];
-            RTCGeometry geometry = rtcNewGeometry(device, RTC_GEOMETRY_TYPE_TRIANGLE);
-            set_triangles(device, geometry, vertices, shape.mesh.triangles);
-            attach(geometry, unsigned(i + 1), what);
+            embree::Geometry geometry(rtcNewGeometry(device, RTC_GEOMETRY_TYPE_TRIANGLE));
+            set_triangles(device, geometry.get(), vertices, shape.mesh.triangles);
+            attach(std::move(geometry), unsigned(i + 1), what);
         } else {
             const PointCloud& discs = shape.discs;
             if (discs.empty() || !discs.has_normals() || !(shape.disc_radius > 0))
                 throw Error("scanner", what + " has neither a mesh nor discs with normals and a radius");
-            RTCGeometry geometry = rtcNewGeometry(device, RTC_GEOMETRY_TYPE_ORIENTED_DISC_POINT);
-            auto* v = static_cast<float*>(rtcSetNewGeometryBuffer(geometry, RTC_BUFFER_TYPE_VERTEX, 0,
+            embree::Geometry geometry(rtcNewGeometry(device, RTC_GEOMETRY_TYPE_ORIENTED_DISC_POINT));
+            auto* v = static_cast<float*>(rtcSetNewGeometryBuffer(geometry.get(), RTC_BUFFER_TYPE_VERTEX, 0,
                                                                   RTC_FORMAT_FLOAT4, 4 * sizeof(float), discs.size()));
-            auto* n = static_cast<float*>(rtcSetNewGeometryBuffer(geometry, RTC_BUFFER_TYPE_NORMAL, 0,
+            auto* n = static_cast<float*>(rtcSetNewGeometryBuffer(geometry.get(), RTC_BUFFER_TYPE_NORMAL, 0,
                                                                   RTC_FORMAT_FLOAT3, 3 * sizeof(float), discs.size()));
             embree::check(device, what);
             for (std::size_t p = 0; p < discs.size(); ++p) {
@@ -159,7 +158,7 @@ VirtualScanner::VirtualScanner(const SyntheticScene& scene) : impl_(std::make_un
                 }
                 v[4 * p + 3] = shape.disc_radius;
             }
-            attach(geometry, unsigned(i + 1), what);
+            attach(std::move(geometry), unsigned(i + 1), what);
         }
     }
     rtcCommitScene(rtc_scene);
@@ -190,40 +189,63 @@ Scan VirtualScanner::scan(const SensorParams& sensor, std::uint32_t seed) const
     scan.labels.assign(pixels, label_none);
     RTCScene rtc_scene = impl_->scene.get();
 
+    // What the sensor makes of a ray through pixel (u, v) that met geometry `geometry` at distance
+    // t along (direction, z = 1), with geometric normal `normal`.
+    auto record = [&](std::uint32_t u, std::uint32_t v, float t, unsigned geometry, const Eigen::Vector3f& normal) {
+        const std::size_t pixel = std::size_t(v) * width + u;
+        grid[pixel] = Point::Constant(nan);
+        if (geometry == RTC_INVALID_GEOMETRY_ID) return;
+        const Eigen::Vector3f d((float(u) - camera.cx) / camera.fx, (float(v) - camera.cy) / camera.fy, 1.0f);
+        if (std::abs(normal.dot(d)) < min_cos * normal.norm() * d.norm()) return;
+        // z = 1 along the ray, so the hit distance t is the depth.
+        double depth = t;
+        double disparity = bf / depth;
+        if (sigma_disparity > 0) disparity += sigma_disparity * standard_normal(seed, pixel);
+        if (subpixel > 0) disparity = std::round(disparity * subpixel) / subpixel;
+        if (!(disparity > 0)) return;
+        depth = bf / disparity;
+        if (depth < sensor.min_range || depth > sensor.max_range) return;
+        const float z = float(depth);
+        grid[pixel] = Point(d.x() * z, d.y() * z, z);
+        scan.labels[pixel] = std::uint16_t(geometry + 1);
+    };
+
+    // Packets of 8 neighbouring pixels of a row: primary rays from one origin are coherent, which
+    // Embree's packet traversal exploits. Packets never straddle rows, so the grouping (and with it
+    // every result) is the same for any thread count.
+    constexpr std::uint32_t lanes = 8;
     tbb::parallel_for(tbb::blocked_range<std::uint32_t>(0, height, 4), [&](const tbb::blocked_range<std::uint32_t>& rows) {
         RTCIntersectContext context;
         rtcInitIntersectContext(&context);
-        const float origin[3] = {0, 0, 0};
+        context.flags = RTC_INTERSECT_CONTEXT_FLAG_COHERENT;
+        RTCRayHit8 packet;
+        int valid[lanes];
         for (std::uint32_t v = rows.begin(); v != rows.end(); ++v) {
-            for (std::uint32_t u = 0; u < width; ++u) {
-                const std::size_t pixel = std::size_t(v) * width + u;
-                // z = 1 along the ray, so the hit distance t is the depth.
-                const float direction[3] = {(float(u) - camera.cx) / camera.fx, (float(v) - camera.cy) / camera.fy,
-                                            1.0f};
-                RTCRayHit ray = embree::make_ray(origin, direction);
-                rtcIntersect1(rtc_scene, &context, &ray);
-                grid[pixel] = Point::Constant(nan);
-                if (ray.hit.geomID == RTC_INVALID_GEOMETRY_ID) continue;
-
-                const Eigen::Vector3f normal(ray.hit.Ng_x, ray.hit.Ng_y, ray.hit.Ng_z);
-                const Eigen::Vector3f d(direction[0], direction[1], direction[2]);
-                if (std::abs(normal.dot(d)) < min_cos * normal.norm() * d.norm()) continue;
-
-                double depth = ray.ray.tfar;
-                double disparity = bf / depth;
-                if (sigma_disparity > 0) disparity += sigma_disparity * standard_normal(seed, pixel);
-                if (subpixel > 0) disparity = std::round(disparity * subpixel) / subpixel;
-                if (!(disparity > 0)) continue;
-                depth = bf / disparity;
-                if (depth < sensor.min_range || depth > sensor.max_range) continue;
-
-                const float z = float(depth);
-                grid[pixel] = Point(direction[0] * z, direction[1] * z, z);
-                scan.labels[pixel] = std::uint16_t(ray.hit.geomID + 1);
+            for (std::uint32_t u0 = 0; u0 < width; u0 += lanes) {
+                for (std::uint32_t lane = 0; lane < lanes; ++lane) {
+                    const std::uint32_t u = u0 + lane;
+                    valid[lane] = u < width ? -1 : 0;
+                    packet.ray.org_x[lane] = packet.ray.org_y[lane] = packet.ray.org_z[lane] = 0.0f;
+                    packet.ray.dir_x[lane] = (float(u) - camera.cx) / camera.fx;
+                    packet.ray.dir_y[lane] = (float(v) - camera.cy) / camera.fy;
+                    packet.ray.dir_z[lane] = 1.0f;
+                    packet.ray.tnear[lane] = 0.0f;
+                    packet.ray.tfar[lane] = std::numeric_limits<float>::infinity();
+                    packet.ray.time[lane] = 0.0f;
+                    packet.ray.mask[lane] = 0xFFFFFFFFu;
+                    packet.ray.id[lane] = lane;
+                    packet.ray.flags[lane] = 0;
+                    packet.hit.geomID[lane] = RTC_INVALID_GEOMETRY_ID;
+                    packet.hit.instID[0][lane] = RTC_INVALID_GEOMETRY_ID;
+                }
+                rtcIntersect8(valid, rtc_scene, &context, &packet);
+                for (std::uint32_t lane = 0; lane < lanes && u0 + lane < width; ++lane) {
+                    record(u0 + lane, v, packet.ray.tfar[lane], packet.hit.geomID[lane],
+                           Eigen::Vector3f(packet.hit.Ng_x[lane], packet.hit.Ng_y[lane], packet.hit.Ng_z[lane]));
+                }
             }
         }
     });
-    embree::check(impl_->device.get(), "ray casting");
 
     PointCloud& cloud = scan.cloud;
     cloud.width = width;

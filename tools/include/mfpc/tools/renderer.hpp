@@ -56,8 +56,8 @@ struct RenderCamera {
 
 struct RenderParams {
     // Image size; both 0: the source grid of an organized cloud, else 640 x 480. A size other than
-    // the grid's scales the sensor's intrinsics, so the size changes the resolution, not the field
-    // of view.
+    // the grid's scales the sensor's intrinsics by the smaller of the two ratios: pixels stay square
+    // and the whole view stays in the picture, centred.
     std::uint32_t width = 0;
     std::uint32_t height = 0;
     RenderView view;

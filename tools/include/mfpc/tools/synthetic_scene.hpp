@@ -6,6 +6,7 @@
 #include <vector>
 
 #include "mfpc/core/foveation_config.hpp"
+#include "mfpc/recognition/ground_truth.hpp"
 #include "mfpc/recognition/model.hpp"
 #include "mfpc/tools/virtual_scanner.hpp"
 
@@ -65,7 +66,7 @@ FoveationConfig fovea_per_instance(const SyntheticScene& scene);
 //                    model cloud into the scene), plus each instance's object name and visible points
 //   labels.png       16-bit grey label per pixel: 0 no return, 1 table, 2 + i object i of scene.json
 //   scene.json       everything: seed, sensor, camera, objects (shape, distractor, poses, label, visible points)
-//   fovea.json       one foveated structure per instance (fovea_per_instance)
+//   fovea.json       one foveated structure per instance (fovea_per_instance); absent without instances
 //   <shape>.pcd      each shape's full model cloud with normals, in its own frame (the GT's model)
 //   <object>.mfpcm   the model cache of the object to recognise, described from views
 //                    (prepare_view_model, default recognition parameters), for `mfpc recognize`
@@ -80,12 +81,22 @@ struct SyntheticDataset {
 };
 
 // Composes, scans (seed also keys the sensor noise), samples the model clouds at model_spacing and
-// describes the object to recognise from views with `features`.
+// describes the object to recognise from views with `features`. Throws mfpc::Error when the
+// objects need a camera farther than the sensor's max_range.
 SyntheticDataset make_synthetic_dataset(std::vector<SceneShape> shapes, const ComposeParams& compose,
                                         const SensorParams& sensor, float model_spacing = 0.002f,
                                         const FeatureParams& features = RecognitionParams{}.model);
 
 // Writes the files above (each atomically) into `directory`, created if missing.
 void write_synthetic_dataset(const std::filesystem::path& directory, const SyntheticDataset& dataset);
+
+// Creates `directory` if missing; throws mfpc::Error when it cannot be, or names a file, so a
+// command can refuse a bad output before long work.
+void prepare_output_directory(const std::filesystem::path& directory);
+// Throws mfpc::Error for a model spacing outside 0.5 mm .. 1 cm.
+void check_model_spacing(float spacing);
+
+// The ground truth of the dataset's instances (what scene.gt.json holds).
+GroundTruth ground_truth_of(const SyntheticDataset& dataset);
 
 }  // namespace mfpc
