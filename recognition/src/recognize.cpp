@@ -43,6 +43,8 @@ RecognitionResult recognize(const Model& model, const PointCloud& scene, const R
         result.timings.foveate = elapsed_ms(t);
     }
     result.counts.scene_points_used = used->size();
+    result.counts.scene_points_foveated = used == &scene ? scene.size() : foveated.points_before_downsampling;
+    result.counts.redundant_points = foveated.redundant_points;
 
     auto t = Clock::now();
     const std::vector<std::uint32_t> keypoints =

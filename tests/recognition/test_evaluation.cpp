@@ -56,5 +56,44 @@ TEST(Evaluation, SymmetricTurnsAreTrueInstancesAndCorrectCorrespondences)
     EXPECT_EQ(evaluate(result, model, truth).instances_true, 0u);
 }
 
+// Precision (Eq. 10) and sensitivity (Eq. 11) on a hand-made set: three model keypoints, one true
+// instance (a translation), four scene keypoints, five correspondences.
+TEST(Evaluation, CountsPrecisionAndSensitivityByHand)
+{
+    Model model;
+    model.points = {Point(0, 0, 0), Point(0.1f, 0, 0), Point(0, 0.1f, 0)};
+    model.features.keypoints = model.points;
+    GroundTruth truth;
+    GroundTruthInstance instance;
+    instance.transform = Pose(Eigen::Translation3f(0, 0, 1));
+    truth.instances.push_back(instance);
+
+    RecognitionResult result;
+    // Scene keypoints: model keypoints 0 and 1 in place (within 1 cm), one 5 mm off keypoint 2's
+    // place, one far from everything.
+    result.scene_features.keypoints = {Point(0, 0, 1), Point(0.1f, 0, 1.005f), Point(0.005f, 0.1f, 1), Point(1, 1, 1)};
+    result.correspondences = {
+        {0, 0, 0.1f},  // correct
+        {1, 1, 0.1f},  // correct
+        {1, 0, 0.1f},  // wrong: keypoint 1 matched to keypoint 0's place
+        {2, 2, 0.1f},  // correct (5 mm off, within the 1 cm tolerance)
+        {2, 3, 0.1f},  // wrong: far away
+    };
+    const Evaluation e = evaluate(result, model, truth);
+    EXPECT_EQ(e.correct_correspondences, 3u);
+    EXPECT_DOUBLE_EQ(e.correspondence_precision, 3.0 / 5.0);
+    // Possible: each of the 3 model keypoints has a scene keypoint within 1 cm of its true place;
+    // hit: the distinct (model keypoint, instance) pairs matched correctly, 0, 1 and 2.
+    EXPECT_EQ(e.possible_correspondences, 3u);
+    EXPECT_DOUBLE_EQ(e.correspondence_sensitivity, 1.0);
+
+    // Without the correct match of keypoint 2: two of three pairs hit.
+    result.correspondences.erase(result.correspondences.begin() + 3);
+    const Evaluation fewer = evaluate(result, model, truth);
+    EXPECT_EQ(fewer.correct_correspondences, 2u);
+    EXPECT_DOUBLE_EQ(fewer.correspondence_precision, 2.0 / 4.0);
+    EXPECT_DOUBLE_EQ(fewer.correspondence_sensitivity, 2.0 / 3.0);
+}
+
 }  // namespace
 }  // namespace mfpc
