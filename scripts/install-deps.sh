@@ -8,7 +8,7 @@ packages=(
   build-essential cmake ninja-build ccache pkg-config
   libtbb-dev libeigen3-dev libopenvdb-dev libflann-dev libpcl-dev libembree-dev
   libgtest-dev libgmock-dev libbenchmark-dev
-  libcli11-dev nlohmann-json3-dev libpng-dev
+  libcli11-dev nlohmann-json3-dev libpng-dev gnuplot-nox
 )
 
 missing=()

@@ -15,5 +15,6 @@ void add_recognize_command(CLI::App& app, const GlobalOptions& global);
 void add_render_command(CLI::App& app, const GlobalOptions& global);
 void add_synth_command(CLI::App& app, const GlobalOptions& global);
 void add_demo_command(CLI::App& app, const GlobalOptions& global);
+void add_experiment_command(CLI::App& app, const GlobalOptions& global);
 
 }  // namespace mfpc::cli

@@ -269,6 +269,28 @@ Box object_box_in_camera(const SyntheticScene& scene, std::size_t index)
     return box;
 }
 
+namespace {
+
+// A structure around `object` (camera frame): the fovea is the box grown by 1 cm, the outer box
+// grown by 11 cm; the densities and radii of the shipped milk-carton configs.
+FoveatedStructure structure_around(const Box& object, int levels, const std::string& name)
+{
+    FoveatedStructure structure;
+    structure.levels = levels;
+    structure.outer_min = object.min.array() - 0.11f;
+    structure.outer_size = object.size().array() + 0.22f;
+    structure.fovea_size = object.size().array() + 0.02f;
+    structure.set_fovea_center(object.center());
+    structure.density_outer = 0.02f;
+    structure.density_fovea = 0.005f;
+    structure.keypoint_radius_outer = 0.03f;
+    structure.keypoint_radius_fovea = 0.01f;
+    structure.name = name;
+    return structure;
+}
+
+}  // namespace
+
 FoveationConfig fovea_per_instance(const SyntheticScene& scene)
 {
     FoveationConfig config;
@@ -276,21 +298,25 @@ FoveationConfig fovea_per_instance(const SyntheticScene& scene)
     config.downsample = Downsample::voxel;
     for (std::size_t i = 0; i < scene.objects.size(); ++i) {
         if (scene.objects[i].distractor) continue;
-        const Box object = object_box_in_camera(scene, i);
-        FoveatedStructure structure;
-        structure.levels = config.levels;
-        const Eigen::Vector3f fovea_size = object.size().array() + 0.02f;
-        structure.outer_min = object.min.array() - 0.11f;
-        structure.outer_size = object.size().array() + 0.22f;
-        structure.fovea_size = fovea_size;
-        structure.set_fovea_center(object.center());
-        structure.density_outer = 0.02f;
-        structure.density_fovea = 0.005f;
-        structure.keypoint_radius_outer = 0.03f;
-        structure.keypoint_radius_fovea = 0.01f;
-        structure.name = scene.shapes[scene.objects[i].shape].name + " " + std::to_string(i);
-        config.structures.push_back(structure);
+        config.structures.push_back(structure_around(object_box_in_camera(scene, i), config.levels,
+                                                     scene.shapes[scene.objects[i].shape].name + " " + std::to_string(i)));
     }
+    return config;
+}
+
+FoveationConfig fovea_covering_all(const SyntheticScene& scene)
+{
+    FoveationConfig config;
+    config.levels = 3;
+    config.downsample = Downsample::voxel;
+    Box all = bounding_box({});
+    for (std::size_t i = 0; i < scene.objects.size(); ++i) {
+        if (scene.objects[i].distractor) continue;
+        const Box object = object_box_in_camera(scene, i);
+        all.min = all.min.cwiseMin(object.min);
+        all.max = all.max.cwiseMax(object.max);
+    }
+    if (all.valid()) config.structures.push_back(structure_around(all, config.levels, "all instances"));
     return config;
 }
 
@@ -419,8 +445,11 @@ void write_synthetic_dataset(const std::filesystem::path& directory, const Synth
         {"objects", objects}};
     write_json_file(directory / "scene.json", manifest);
     // A scene without instances has no fovea to place, and a config needs one structure.
-    if (!dataset.fovea.structures.empty())
+    if (!dataset.fovea.structures.empty()) {
         write_file_atomically(directory / "fovea.json", [&](std::ofstream& out) { out << to_json(dataset.fovea) << '\n'; });
+        write_file_atomically(directory / "fovea_all.json",
+                              [&](std::ofstream& out) { out << to_json(fovea_covering_all(scene)) << '\n'; });
+    }
 }
 
 }  // namespace mfpc

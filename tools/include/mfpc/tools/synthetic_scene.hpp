@@ -59,6 +59,8 @@ Box object_box_in_camera(const SyntheticScene& scene, std::size_t index);
 // frame grown by 1 cm, the outer box that grown by 10 cm; m = 3, d = 2 cm .. 5 mm, r = 3 cm .. 1 cm
 // (the densities and radii of the shipped milk-carton configs).
 FoveationConfig fovea_per_instance(const SyntheticScene& scene);
+// One structure whose fovea holds every instance (the paper's FCAS strategy), sized the same way.
+FoveationConfig fovea_covering_all(const SyntheticScene& scene);
 
 // What `mfpc synth` writes into a directory:
 //   scene.pcd        organized scan (binary PCD, NaN where no return), camera frame
@@ -67,6 +69,7 @@ FoveationConfig fovea_per_instance(const SyntheticScene& scene);
 //   labels.png       16-bit grey label per pixel: 0 no return, 1 table, 2 + i object i of scene.json
 //   scene.json       everything: seed, sensor, camera, objects (shape, distractor, poses, label, visible points)
 //   fovea.json       one foveated structure per instance (fovea_per_instance); absent without instances
+//   fovea_all.json   one structure covering every instance (fovea_covering_all); absent likewise
 //   <shape>.pcd      each shape's full model cloud with normals, in its own frame (the GT's model)
 //   <object>.mfpcm   the model cache of the object to recognise, described from views
 //                    (prepare_view_model, default recognition parameters), for `mfpc recognize`

@@ -1,0 +1,70 @@
+// `mfpc experiment` as a user meets it: every report file from one command, numbers that agree
+// between the files, and one-line errors.
+#include <gtest/gtest.h>
+#include <nlohmann/json.hpp>
+
+#include "cli_runner.hpp"
+#include "test_support.hpp"
+
+namespace mfpc {
+namespace {
+
+using test::expect_one_line_error;
+using test::quoted;
+using test::Result;
+using test::run;
+using test::slurp;
+
+TEST(CliExperiment, WritesEveryReportFile)
+{
+    MFPC_SHARED_FILE_OR_SKIP(scene, "milk_pair.pcd");
+    const test::TempDir dir;
+    const std::string data = test::shared_data_dir().string();
+    const std::string configs = std::string(MFPC_SOURCE_DIR) + "/examples/configs/";
+    const auto config = dir.write("experiment.json", "{\"model\": \"" + data + "/milk.pcd\", \"scene\": \"" + data +
+                                                         "/milk_pair.pcd\", \"ground_truth\": \"" + data +
+                                                         "/milk_pair.gt.json\", \"runs\": 2, \"strategies\": ["
+                                                         "{\"name\": \"non-foveated\", \"mode\": \"none\"},"
+                                                         "{\"name\": \"raw\", \"mode\": \"raw\", \"fovea\": \"" +
+                                                         configs + "milk_pair_two.json\"},"
+                                                         "{\"name\": \"MFPC\", \"mode\": \"mfpc\", \"fovea\": \"" +
+                                                         configs + "milk_pair_two.json\"}]}");
+    const Result r = run("experiment --config " + quoted(config) + " -o " + quoted(dir / "report"));
+    ASSERT_EQ(r.exit_code, 0) << r.err;
+    for (const char* file : {"report.json", "report.csv", "report.md", "strategy_1.png", "strategy_3.png",
+                             "fig11a_points.png", "fig11d_correct_correspondences.png", "fig12a_precision.png",
+                             "fig12d_time.png"})
+        EXPECT_TRUE(std::filesystem::exists(dir / "report" / file)) << file;
+
+    const auto report = nlohmann::json::parse(slurp(dir / "report" / "report.json"));
+    ASSERT_EQ(report["strategies"].size(), 3u);
+    EXPECT_EQ(report["reference"], "MFPC");
+    for (const auto& strategy : report["strategies"]) {
+        EXPECT_EQ(strategy["total_ms_per_run"].size(), 2u);
+        const auto runs = strategy["total_ms_per_run"];
+        // The mean reported is the mean of the runs measured.
+        EXPECT_NEAR(strategy["time_ms"]["total"]["mean"].get<double>(),
+                    (runs[0].get<double>() + runs[1].get<double>()) / 2.0, 1e-9);
+    }
+    const auto& raw = report["strategies"][1]["counts"];
+    const auto& mfpc = report["strategies"][2]["counts"];
+    EXPECT_EQ(mfpc["points_before_downsampling"].get<long>(),
+              raw["points_before_downsampling"].get<long>() - raw["redundant_points"].get<long>());
+    EXPECT_NE(slurp(dir / "report" / "report.md").find("| MFPC |"), std::string::npos);
+    EXPECT_EQ(std::count(r.out.begin(), r.out.end(), '\n') > 10, true);
+}
+
+TEST(CliExperiment, BadConfigIsOneLine)
+{
+    const test::TempDir dir;
+    expect_one_line_error(run("experiment -o " + quoted(dir / "r")), 2, "no config");
+    expect_one_line_error(run("experiment --config " + quoted(dir / "missing.json") + " -o " + quoted(dir / "r")), 1,
+                          "missing config");
+    expect_one_line_error(run("experiment --config " + quoted(dir.write("bad.json", "{\"model\": 1}")) + " -o " +
+                              quoted(dir / "r")),
+                          1, "bad config");
+    expect_one_line_error(run("experiment --runs 0 --config x.json -o " + quoted(dir / "r")), 2, "zero runs");
+}
+
+}  // namespace
+}  // namespace mfpc
