@@ -21,12 +21,10 @@ using namespace mfpc;
 const SyntheticScene& tabletop()
 {
     static const SyntheticScene scene = [] {
-        std::vector<SceneShape> shapes;
-        for (std::string_view name : builtin_object_names()) shapes.push_back(make_builtin_shape(std::string(name)));
         ComposeParams params;
         params.objects = 3;
         params.distractors = 3;
-        return compose_scene(std::move(shapes), params);
+        return compose_scene(builtin_scene_shapes(), params);
     }();
     return scene;
 }

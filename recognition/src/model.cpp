@@ -7,6 +7,7 @@
 #include <string>
 
 #include "mfpc/core/atomic_file.hpp"
+#include "mfpc/core/cloud_io.hpp"
 #include "mfpc/core/error.hpp"
 #include "mfpc/core/text_file.hpp"
 #include "mfpc/index/neighbor_grid.hpp"
@@ -121,6 +122,19 @@ Model prepare_model(const PointCloud& cloud, const FeatureParams& params, const 
         throw Error(source, "the model has " + std::to_string(model.features.size()) +
                                 " usable keypoints (fewer than 3): is it too small for keypoint_radius " +
                                 std::to_string(params.keypoint_radius) + "?");
+    return model;
+}
+
+bool is_model_cache(const std::filesystem::path& path) { return path.extension() == ".mfpcm"; }
+
+Model load_model(const std::filesystem::path& path, const FeatureParams& params, bool check_cache_params,
+                 const std::string& params_source, FeatureTimings* timings)
+{
+    if (!is_model_cache(path)) return prepare_model(read_cloud(path), params, path.string(), timings);
+    Model model = read_model_cache(path);
+    if (check_cache_params && model.params != params)
+        throw Error(path.string(), "the cache was made with other model parameters than " + params_source +
+                                       " gives: run `mfpc model` again with these parameters");
     return model;
 }
 

@@ -14,16 +14,9 @@
 namespace mfpc {
 namespace {
 
-std::vector<SceneShape> demo_shapes()
-{
-    std::vector<SceneShape> shapes;
-    for (std::string_view name : builtin_object_names()) shapes.push_back(make_builtin_shape(std::string(name)));
-    return shapes;  // the carton first: the object to recognise
-}
-
 const SyntheticDataset& dataset()
 {
-    static const SyntheticDataset instance = make_synthetic_dataset(demo_shapes(), ComposeParams{}, SensorParams{});
+    static const SyntheticDataset instance = make_synthetic_dataset(builtin_scene_shapes(), ComposeParams{}, SensorParams{});
     return instance;
 }
 

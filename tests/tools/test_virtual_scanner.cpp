@@ -211,13 +211,6 @@ TEST(VirtualScanner, BadSensorIsAnError)
     EXPECT_THROW(check_sensor(sensor), Error);
 }
 
-std::vector<SceneShape> builtin_shapes()
-{
-    std::vector<SceneShape> shapes;
-    for (std::string_view name : builtin_object_names()) shapes.push_back(make_builtin_shape(std::string(name)));
-    return shapes;
-}
-
 TEST(SceneComposer, ObjectsStandOnTheTableApart)
 {
     for (std::uint32_t seed : {1u, 2u, 3u, 4u}) {
@@ -225,7 +218,7 @@ TEST(SceneComposer, ObjectsStandOnTheTableApart)
         params.seed = seed;
         params.objects = 4;
         params.distractors = 5;
-        const SyntheticScene scene = compose_scene(builtin_shapes(), params);
+        const SyntheticScene scene = compose_scene(builtin_scene_shapes(), params);
         ASSERT_EQ(scene.objects.size(), 9u);
         for (std::size_t i = 0; i < scene.objects.size(); ++i) {
             const SceneObject& a = scene.objects[i];
@@ -250,10 +243,10 @@ TEST(SceneComposer, SeedsAreReproducible)
 {
     ComposeParams params;
     params.seed = 11;
-    const SyntheticScene a = compose_scene(builtin_shapes(), params);
-    const SyntheticScene b = compose_scene(builtin_shapes(), params);
+    const SyntheticScene a = compose_scene(builtin_scene_shapes(), params);
+    const SyntheticScene b = compose_scene(builtin_scene_shapes(), params);
     params.seed = 12;
-    const SyntheticScene c = compose_scene(builtin_shapes(), params);
+    const SyntheticScene c = compose_scene(builtin_scene_shapes(), params);
     EXPECT_TRUE(a.camera.matrix() == b.camera.matrix());
     EXPECT_FALSE(a.camera.matrix() == c.camera.matrix());
     for (std::size_t i = 0; i < a.objects.size(); ++i) EXPECT_TRUE(a.objects[i].pose.matrix() == b.objects[i].pose.matrix());
@@ -264,7 +257,7 @@ TEST(SceneComposer, CrowdedTablesGrow)
     ComposeParams params;
     params.objects = 40;
     params.distractors = 40;
-    const SyntheticScene scene = compose_scene(builtin_shapes(), params);
+    const SyntheticScene scene = compose_scene(builtin_scene_shapes(), params);
     EXPECT_EQ(scene.objects.size(), 80u);
     EXPECT_GT(scene.plane_half_size.x(), params.placement_half_x + 0.3f);
 }
@@ -276,17 +269,17 @@ TEST(SceneComposer, ContradictionsAreErrors)
     EXPECT_THROW(compose_scene({make_builtin_shape("carton")}, params), Error);  // distractors, no distractor shape
     params.camera_distance_min = 2;
     params.camera_distance_max = 1;
-    EXPECT_THROW(compose_scene(builtin_shapes(), params), Error);
+    EXPECT_THROW(compose_scene(builtin_scene_shapes(), params), Error);
     params = ComposeParams{};
     params.objects = 0;
     params.distractors = 0;
-    EXPECT_THROW(compose_scene(builtin_shapes(), params), Error);
+    EXPECT_THROW(compose_scene(builtin_scene_shapes(), params), Error);
 }
 
 // Scans of a composed scene with the same seed are the same bytes with 1 and 2 threads.
 TEST(VirtualScanner, ScansAreBitIdenticalAcrossThreadCounts)
 {
-    const SyntheticScene scene = compose_scene(builtin_shapes(), ComposeParams{});
+    const SyntheticScene scene = compose_scene(builtin_scene_shapes(), ComposeParams{});
     const SensorParams sensor;
     Scan scans[2];
     for (int threads = 1; threads <= 2; ++threads) {
@@ -309,7 +302,7 @@ TEST(VirtualScanner, LabelsAndGroundTruthAgreeExactly)
 {
     ComposeParams params;
     params.seed = 3;
-    const SyntheticScene scene = compose_scene(builtin_shapes(), params);
+    const SyntheticScene scene = compose_scene(builtin_scene_shapes(), params);
     const Scan scan = scan_scene(scene, exact_sensor(320, 240), 3);
     std::vector<std::size_t> counts(scene.objects.size(), 0);
     std::vector<double> worst(scene.objects.size(), 0);
@@ -339,7 +332,7 @@ TEST(VirtualScanner, GroundTruthPutsTheModelOnTheScan)
     ComposeParams params;
     params.seed = 8;
     const SensorParams sensor;
-    const SyntheticDataset dataset = make_synthetic_dataset(builtin_shapes(), params, sensor);
+    const SyntheticDataset dataset = make_synthetic_dataset(builtin_scene_shapes(), params, sensor);
     const SyntheticScene& scene = dataset.scene;
     const Scan& scan = dataset.scan;
     const NeighborGrid grid(scan.cloud.points, 0.01f);

@@ -43,10 +43,7 @@ void run_demo(const DemoOptions& options, const GlobalOptions& global)
     Stopwatch clock;
     progress(global, "synthesizing a tabletop scene (seed " + std::to_string(options.seed) +
                          ") and describing the " + options.object + " from 16 views");
-    std::vector<SceneShape> shapes;
-    shapes.push_back(make_builtin_shape(options.object));
-    for (std::string_view name : builtin_object_names())
-        if (name != options.object) shapes.push_back(make_builtin_shape(std::string(name)));
+    std::vector<SceneShape> shapes = builtin_scene_shapes(options.object);
     ComposeParams compose;
     compose.seed = options.seed;
     compose.objects = options.objects;

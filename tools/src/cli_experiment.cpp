@@ -160,11 +160,8 @@ void run_experiment_command(const ExperimentOptions& options, const GlobalOption
     prepare_output_directory(directory);
 
     Stopwatch clock;
-    const bool cached = config.model.extension() == ".mfpcm";
-    Model model = cached ? read_model_cache(config.model)
-                         : prepare_model(read_cloud(config.model), config.params.model, config.model.string());
-    if (cached && model.params != config.params.model)
-        throw Error(config.model.string(), "the cache was made with other model parameters than the experiment's");
+    const bool cached = is_model_cache(config.model);
+    const Model model = load_model(config.model, config.params.model, true, options.config);
     const double model_ms = clock.lap_ms();
     const PointCloud scene = read_cloud(config.scene);
     const GroundTruth truth = read_ground_truth(config.ground_truth);

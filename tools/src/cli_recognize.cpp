@@ -18,8 +18,6 @@
 namespace mfpc::cli {
 namespace {
 
-bool is_model_cache(const std::string& path) { return std::filesystem::path(path).extension() == ".mfpcm"; }
-
 nlohmann::ordered_json feature_params_json(const FeatureParams& p)
 {
     return nlohmann::ordered_json::parse(to_json(p));
@@ -46,7 +44,7 @@ struct ModelOptions {
 
 void run_model(const ModelOptions& options, const GlobalOptions& global)
 {
-    if (std::filesystem::path(options.output).extension() != ".mfpcm")
+    if (!is_model_cache(options.output))
         throw CLI::ValidationError("--output", "the model cache must end in .mfpcm");
     const RecognitionParams params = load_params(options.params);
     Stopwatch clock;
@@ -119,18 +117,11 @@ void run_recognize(const RecognizeOptions& options, const GlobalOptions& global)
         options.ground_truth.empty() ? std::nullopt : std::optional<GroundTruth>(read_ground_truth(options.ground_truth));
 
     Stopwatch clock;
-    Model model;
     FeatureTimings model_timings;
     const bool cached = is_model_cache(options.model);
-    if (cached) {
-        model = read_model_cache(options.model);
-        if (!options.params.empty() && model.params != params.model)
-            throw Error(options.model, "the cache was made with other model parameters than " + options.params +
-                                           " gives: run `mfpc model` again with these parameters");
-        params.model = model.params;
-    } else {
-        model = prepare_model(read_cloud(options.model), params.model, options.model, &model_timings);
-    }
+    // Without --params a cache brings its own model parameters.
+    const Model model = load_model(options.model, params.model, !options.params.empty(), options.params, &model_timings);
+    params.model = model.params;
     const double model_ms = clock.lap_ms();
     CloudReadReport report;
     const PointCloud scene = read_cloud(options.scene, &report);

@@ -91,7 +91,7 @@ Instances read_instances(const std::filesystem::path& path)
 
 std::vector<Point> model_points(const std::filesystem::path& model)
 {
-    if (model.extension() == ".mfpcm") return read_model_cache(model).points;
+    if (is_model_cache(model)) return read_model_cache(model).points;
     return read_cloud(model).points;
 }
 

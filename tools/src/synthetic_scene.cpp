@@ -100,6 +100,14 @@ SceneShape make_builtin_shape(const std::string& name)
     return shape;
 }
 
+std::vector<SceneShape> builtin_scene_shapes(const std::string& first)
+{
+    std::vector<SceneShape> shapes{make_builtin_shape(first)};
+    for (std::string_view name : builtin_object_names())
+        if (name != first) shapes.push_back(make_builtin_shape(std::string(name)));
+    return shapes;
+}
+
 SceneShape make_cloud_shape(const PointCloud& cloud, const std::string& name, const Eigen::Vector3f& up)
 {
     check_cloud(cloud, name.c_str());
@@ -168,6 +176,8 @@ float footprint_radius(const SceneShape& shape)
     for (const Eigen::Vector3f& p : outline(shape)) radius = std::max(radius, std::hypot(p.x(), p.y()));
     return radius;
 }
+
+Box shape_bounds(const SceneShape& shape) { return bounding_box(outline(shape)); }
 
 SyntheticScene compose_scene(std::vector<SceneShape> shapes, const ComposeParams& params)
 {

@@ -24,8 +24,7 @@ Model prepare_view_model(const SceneShape& shape, const PointCloud& surface, con
     scene.shapes = {shape};
     scene.objects.push_back(SceneObject{});
     scene.plane_half_size = Eigen::Vector2f::Zero();
-    const Box bounds = shape.mesh.empty() ? bounding_box(shape.discs.points) : shape.mesh.bounds();
-    const Eigen::Vector3f target(0, 0, bounds.center().z());
+    const Eigen::Vector3f target(0, 0, shape_bounds(shape).center().z());
 
     Model model;
     model.points = surface.points;

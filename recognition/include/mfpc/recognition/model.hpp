@@ -29,6 +29,15 @@ Point model_centroid(const Model& model);
 Model prepare_model(const PointCloud& cloud, const FeatureParams& params, const std::string& source,
                     FeatureTimings* timings = nullptr);
 
+// A .mfpcm file name (the model cache below).
+bool is_model_cache(const std::filesystem::path& path);
+
+// The model a command was given: a cache as it was written, or a cloud (.pcd, .ply) described
+// with `params`. With `check_cache_params`, a cache made with other parameters is stale for this
+// run: an error naming the cache and `params_source` (where the parameters came from).
+Model load_model(const std::filesystem::path& path, const FeatureParams& params, bool check_cache_params,
+                 const std::string& params_source, FeatureTimings* timings = nullptr);
+
 // The model cache (.mfpcm): a versioned binary file holding all of Model, so batch runs do not
 // describe the model again. read_model_cache throws mfpc::Error for a file that is not a cache, a
 // cache of another format version, or a truncated or corrupt one (checked by size and checksum).

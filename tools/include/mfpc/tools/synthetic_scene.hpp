@@ -21,6 +21,9 @@ namespace mfpc {
 // file has none, and the disc radius is the median nearest-neighbour distance, so neighbouring
 // discs overlap and the surface has no holes.
 SceneShape make_builtin_shape(const std::string& name);
+// The built-in objects as shapes for compose_scene: `first` (a built-in name) first, as the object
+// to recognise, then the others, as distractors.
+std::vector<SceneShape> builtin_scene_shapes(const std::string& first = "carton");
 SceneShape make_cloud_shape(const PointCloud& cloud, const std::string& name,
                             const Eigen::Vector3f& up = Eigen::Vector3f(0, -1, 0));
 SceneShape load_shape(const std::string& name_or_path, const Eigen::Vector3f& cloud_up = Eigen::Vector3f(0, -1, 0));
@@ -49,8 +52,9 @@ struct ComposeParams {
 
 SyntheticScene compose_scene(std::vector<SceneShape> shapes, const ComposeParams& params);
 
-// The radius of a shape's footprint around its z axis.
+// The radius of a shape's footprint around its z axis, and its bounding box (own frame).
 float footprint_radius(const SceneShape& shape);
+Box shape_bounds(const SceneShape& shape);
 
 // The axis-aligned box, in the camera frame, of object `index` as placed in the scene.
 Box object_box_in_camera(const SyntheticScene& scene, std::size_t index);
