@@ -118,6 +118,26 @@ PointIndex::PointIndex(std::span<const Point> points, const PointIndexParams& pa
     });
 }
 
+PointIndex::PointIndex(const PointCloud& cloud, const PointIndexParams& params) : PointIndex(cloud.points, params)
+{
+    if (!cloud.has_colors()) return;
+    if (cloud.colors.size() != cloud.points.size()) {
+        throw Error("index", "the cloud has " + std::to_string(cloud.colors.size()) + " colours for " +
+                                 std::to_string(cloud.points.size()) + " points");
+    }
+    colors_ = cloud.colors;
+    voxel_color_sums_.resize(voxels_.size());
+    tbb::parallel_for(std::size_t(0), voxels_.size(), [&](std::size_t v) {
+        std::array<std::uint64_t, 3>& sum = voxel_color_sums_[v];
+        for (std::uint32_t k = voxels_[v].begin; k < voxels_[v].end; ++k) {
+            const Rgb& c = colors_[point_order_[k]];
+            sum[0] += c.r;
+            sum[1] += c.g;
+            sum[2] += c.b;
+        }
+    });
+}
+
 PointIndex::~PointIndex() = default;
 PointIndex::PointIndex(PointIndex&&) noexcept = default;
 PointIndex& PointIndex::operator=(PointIndex&&) noexcept = default;
@@ -166,7 +186,8 @@ std::size_t PointIndex::memory_bytes() const
 {
     return static_cast<std::size_t>(grid_->grid->memUsage()) + leaves_.capacity() * sizeof(PointIndexLeaf) +
            voxels_.capacity() * sizeof(PointIndexVoxel) + point_order_.capacity() * sizeof(std::uint32_t) +
-           ordered_points_.capacity() * sizeof(Point);
+           ordered_points_.capacity() * sizeof(Point) +
+           voxel_color_sums_.capacity() * sizeof(voxel_color_sums_[0]);
 }
 
 }  // namespace mfpc

@@ -20,19 +20,6 @@ namespace {
 
 constexpr std::uint16_t no_region = std::numeric_limits<std::uint16_t>::max();
 
-// Written out per axis: Eigen's array reductions cost a third of the labelling here.
-bool disjoint(const Box& a, const Box& b)
-{
-    return a.max.x() < b.min.x() || a.max.y() < b.min.y() || a.max.z() < b.min.z() || a.min.x() > b.max.x() ||
-           a.min.y() > b.max.y() || a.min.z() > b.max.z();
-}
-
-bool contains(const Box& outer, const Box& inner)
-{
-    return inner.min.x() >= outer.min.x() && inner.min.y() >= outer.min.y() && inner.min.z() >= outer.min.z() &&
-           inner.max.x() <= outer.max.x() && inner.max.y() <= outer.max.y() && inner.max.z() <= outer.max.z();
-}
-
 // The levels that points within some bounds can have in one structure: every such point's level
 // (the largest k whose box contains it, -1 for none; FoveatedStructure::level_of) lies in
 // [lowest, highest]. lowest == highest means one level for all of them; highest == -1, outside.
@@ -42,32 +29,77 @@ struct LevelRange {
     bool whole() const { return lowest == highest; }
 };
 
-// Narrows `range` (known for enclosing bounds) to `bounds`, testing only the boxes that can still
-// decide: those of levels lowest + 1 .. highest. Exact: a level is certain only when the bounds
-// lie in its box and miss every denser box that was still possible.
-LevelRange narrow_range(const Box& bounds, const Box* boxes, LevelRange range)
-{
-    LevelRange out{range.lowest, -2};
-    for (int k = range.highest; k > range.lowest; --k) {
-        if (contains(boxes[k], bounds)) {
-            out.lowest = std::int8_t(k);
-            break;
-        }
-        if (out.highest == -2 && !disjoint(bounds, boxes[k])) out.highest = std::int8_t(k);
-    }
-    if (out.highest == -2) out.highest = out.lowest;
-    return out;
-}
+// x, y, z and an unused fourth lane (GCC/Clang vector extensions: SSE on x86-64, NEON on arm64).
+// A comparison gives -1 in every lane where it holds, so subtracting its result counts.
+using AxisLanes = float __attribute__((vector_size(16)));
+using AxisCounts = std::int32_t __attribute__((vector_size(16)));
 
-// The level of p within a range: the largest k in lowest + 1 .. highest whose box contains p, else
-// lowest (the range says p is at least there).
-int level_in(const Box* boxes, LevelRange range, const Point& p)
-{
-    for (int k = range.highest; k > range.lowest; --k) {
-        if (boxes[k].contains(p)) return k;
+AxisLanes axis_lanes(const Point& p) { return AxisLanes{p.x(), p.y(), p.z(), 0.0f}; }
+int smallest_axis(AxisCounts counts) { return std::min(std::min(counts[0], counts[1]), counts[2]); }
+
+// The level boxes of every structure as faces, the three axes side by side. The boxes are nested,
+// so on each axis the lower faces ascend with k and the upper ones descend: box k holds coordinate
+// x on an axis exactly for k < min(#{k : lower_k <= x}, #{k : upper_k >= x}), and holds a point
+// (or bounds) exactly when it does on all three axes. A level is thus a count of comparisons, made
+// for the three axes at once and without a branch: written as box tests, labelling spent most of
+// its time in mispredicted branches.
+class LevelFaces {
+public:
+    explicit LevelFaces(std::span<const FoveatedStructure> structures) : boxes_(structures[0].levels + 1)
+    {
+        constexpr float inf = std::numeric_limits<float>::infinity();
+        for (const FoveatedStructure& structure : structures) {
+            for (int k = 0; k < boxes_; ++k) {
+                const Box box = structure.level_box(k);
+                // The fourth lane always holds, so it never limits the count.
+                lower_.push_back(AxisLanes{box.min.x(), box.min.y(), box.min.z(), -inf});
+                upper_.push_back(AxisLanes{box.max.x(), box.max.y(), box.max.z(), inf});
+            }
+        }
     }
-    return range.lowest;
-}
+
+    // The level range of points within `bounds` (tight: the extreme coordinates are points').
+    LevelRange range(int structure, const Box& bounds) const
+    {
+        const AxisLanes* lower = &lower_[std::size_t(structure) * std::size_t(boxes_)];
+        const AxisLanes* upper = &upper_[std::size_t(structure) * std::size_t(boxes_)];
+        const AxisLanes low = axis_lanes(bounds.min);
+        const AxisLanes high = axis_lanes(bounds.max);
+        // Bounds beside the outer box, the common case with many structures: no level to count.
+        const AxisCounts beside = (high < lower[0]) | (low > upper[0]);
+        if (beside[0] | beside[1] | beside[2]) return {-1, -1};
+        AxisCounts lower_in{}, upper_in{}, lower_reach{}, upper_reach{};
+        for (int k = 0; k < boxes_; ++k) {
+            lower_in -= lower[k] <= low;
+            upper_in -= upper[k] >= high;
+            lower_reach -= lower[k] <= high;
+            upper_reach -= upper[k] >= low;
+        }
+        // Boxes holding all of bounds, and boxes overlapping them.
+        const int contained = smallest_axis(lower_in < upper_in ? lower_in : upper_in);
+        const int reached = smallest_axis(lower_reach < upper_reach ? lower_reach : upper_reach);
+        return {std::int8_t(contained - 1), std::int8_t(reached - 1)};
+    }
+
+    // The level of p (-1: outside the structure).
+    int level(int structure, const Point& p) const
+    {
+        const AxisLanes* lower = &lower_[std::size_t(structure) * std::size_t(boxes_)];
+        const AxisLanes* upper = &upper_[std::size_t(structure) * std::size_t(boxes_)];
+        const AxisLanes x = axis_lanes(p);
+        AxisCounts lower_in{}, upper_in{};
+        for (int k = 0; k < boxes_; ++k) {
+            lower_in -= lower[k] <= x;
+            upper_in -= upper[k] >= x;
+        }
+        return smallest_axis(lower_in < upper_in ? lower_in : upper_in) - 1;
+    }
+
+private:
+    int boxes_;
+    std::vector<AxisLanes> lower_;  // [structure * boxes + k]
+    std::vector<AxisLanes> upper_;
+};
 
 void check_structures(std::span<const FoveatedStructure> structures)
 {
@@ -90,22 +122,20 @@ void check_structures(std::span<const FoveatedStructure> structures)
     }
 }
 
-// Boxes and the densest-first order of every region, computed once per call.
+// Level faces and the densest-first order of every region, computed once per call.
 struct RegionTable {
     int boxes_per_structure = 0;
-    std::vector<Box> boxes;            // region r's box
+    LevelFaces faces;
     std::vector<std::uint16_t> rank;   // region r's place in the densest-first order
     std::vector<std::uint16_t> by_rank;
 
-    explicit RegionTable(std::span<const FoveatedStructure> structures)
+    explicit RegionTable(std::span<const FoveatedStructure> structures) : faces(structures)
     {
         boxes_per_structure = structures[0].levels + 1;
         const std::size_t region_count = structures.size() * std::size_t(boxes_per_structure);
-        boxes.resize(region_count);
         std::vector<float> density(region_count);
         for (std::size_t s = 0; s < structures.size(); ++s) {
             for (int k = 0; k < boxes_per_structure; ++k) {
-                boxes[s * std::size_t(boxes_per_structure) + std::size_t(k)] = structures[s].level_box(k);
                 density[s * std::size_t(boxes_per_structure) + std::size_t(k)] = structures[s].density(k);
             }
         }
@@ -123,7 +153,6 @@ struct RegionTable {
         for (std::size_t r = 0; r < region_count; ++r) rank[by_rank[r]] = std::uint16_t(r);
     }
 
-    const Box* boxes_of(int structure) const { return &boxes[std::size_t(structure * boxes_per_structure)]; }
     std::uint16_t region(int structure, int level) const
     {
         return std::uint16_t(structure * boxes_per_structure + level);
@@ -157,6 +186,7 @@ std::vector<Emitted> label_runs(const PointIndex& index, const RegionTable& tabl
     const auto voxels = index.voxels();
     const auto ordered_points = index.ordered_points();
     const int box_count = table.boxes_per_structure;
+    const LevelFaces& faces = table.faces;
 
     struct Reach {
         int structure;
@@ -168,54 +198,53 @@ std::vector<Emitted> label_runs(const PointIndex& index, const RegionTable& tabl
         inner.clear();
         bool any_mixed = false;
         for (const Reach& r : outer) {
-            const LevelRange levels =
-                r.levels.whole() ? r.levels : narrow_range(bounds, table.boxes_of(r.structure), r.levels);
+            const LevelRange levels = r.levels.whole() ? r.levels : faces.range(r.structure, bounds);
             if (levels.highest < 0) continue;
             inner.push_back({r.structure, levels});
             any_mixed |= !levels.whole();
         }
         return any_mixed;
     };
+    // Appends a run, or extends the chunk's last run when it is of the same kind and region and
+    // ends where this one begins (the index order is contiguous within and across voxels).
+    auto emit = [](Emitted& out, std::uint16_t region, const RegionRun& run) {
+        if (!out.runs.empty()) {
+            RegionRun& last = out.runs.back();
+            if (out.regions.back() == region && last.end == run.begin &&
+                last.whole_voxels() == run.whole_voxels() && last.voxel_end == run.voxel_begin) {
+                last.end = run.end;
+                last.voxel_end = run.voxel_end;
+                return;
+            }
+        }
+        out.regions.push_back(region);
+        out.runs.push_back(run);
+    };
     auto emit_whole = [&](const std::vector<Reach>& reach, std::uint32_t voxel_begin, std::uint32_t voxel_end,
                           Emitted& out) {
         // narrow() keeps only structures that reach the bounds, so a whole range here has a level >= 0.
         std::uint16_t best = no_region;
         for (const Reach& r : reach) best = std::min(best, table.rank[table.region(r.structure, r.levels.lowest)]);
-        const std::size_t covering = reach.size();
-        const std::uint16_t region = table.by_rank[best];
-        for (std::uint32_t v = voxel_begin; v < voxel_end; ++v) {
-            out.regions.push_back(region);
-            out.runs.push_back({voxels[v].begin, voxels[v].end, v});
-            out.coverage.covered_points += voxels[v].size();
-            out.coverage.coverage_pairs += std::size_t(voxels[v].size()) * covering;
-        }
+        const std::uint32_t begin = voxels[voxel_begin].begin;
+        const std::uint32_t end = voxels[voxel_end - 1].end;
+        emit(out, table.by_rank[best], RegionRun{begin, end, voxel_begin, voxel_end});
+        out.coverage.covered_points += end - begin;
+        out.coverage.coverage_pairs += std::size_t(end - begin) * reach.size();
     };
     auto emit_each = [&](const std::vector<Reach>& reach, const PointIndexVoxel& voxel, Emitted& out) {
-        std::uint16_t open_region = no_region;  // the region of the run being extended, if any
         for (std::uint32_t k = voxel.begin; k < voxel.end; ++k) {
             std::uint16_t best = no_region;
             std::size_t covering = 0;
             for (const Reach& r : reach) {
-                const int level = r.levels.whole() ? r.levels.lowest
-                                                   : level_in(table.boxes_of(r.structure), r.levels, ordered_points[k]);
+                const int level = r.levels.whole() ? r.levels.lowest : faces.level(r.structure, ordered_points[k]);
                 if (level < 0) continue;
                 ++covering;
                 best = std::min(best, table.rank[table.region(r.structure, level)]);
             }
-            if (covering == 0) {
-                open_region = no_region;
-                continue;
-            }
+            if (covering == 0) continue;
             out.coverage.covered_points += 1;
             out.coverage.coverage_pairs += covering;
-            const std::uint16_t region = table.by_rank[best];
-            if (region == open_region) {
-                ++out.runs.back().end;
-            } else {
-                out.regions.push_back(region);
-                out.runs.push_back({k, k + 1, RegionRun::partial});
-                open_region = region;
-            }
+            emit(out, table.by_rank[best], RegionRun{k, k + 1, 0, 0});
         }
     };
 
@@ -400,8 +429,10 @@ public:
 
     VoxelSlots(const Eigen::Matrix<std::int64_t, 3, 1>& extent, std::size_t members) : extent_(extent)
     {
+        // Whichever table is smaller to clear: 4 bytes a dense cell, 12 bytes a hash entry (two
+        // per member).
         const double cells = double(extent[0]) * double(extent[1]) * double(extent[2]);
-        if (cells <= 4.0 * double(members) + 4096.0) {
+        if (4.0 * cells <= 12.0 * double(std::bit_ceil(members * 2)) + 16384.0) {
             dense_.assign(std::size_t(cells), none);
         } else {
             capacity_ = std::bit_ceil(members * 2);
@@ -549,7 +580,7 @@ RegionOutput downsample_region(const PointCloud& cloud, const RegionMembers& reg
         Eigen::Vector3d xyz;
         std::uint32_t count;
         std::uint32_t first;                     // lowest point index
-        std::array<std::uint32_t, 3> rgb{};      // integer sums: exact in any order
+        std::array<std::uint64_t, 3> rgb{};      // integer sums: exact in any order
     };
     std::vector<Sum> voxels;
     const bool colors = cloud.has_colors();
@@ -583,26 +614,36 @@ RegionOutput downsample_region(const PointCloud& cloud, const RegionMembers& reg
         const auto order = region.index->point_order();
         const auto points = region.index->ordered_points();
         const auto index_voxels = region.index->voxels();
+        // The index's colour sums, when they were taken from this cloud's colours.
+        const auto color_sums = colors && region.index->colors().data() == cloud.colors.data()
+                                    ? region.index->voxel_color_sums()
+                                    : std::span<const std::array<std::uint64_t, 3>>();
         for (const RegionRun& run : region.runs) {
-            // A whole index voxel whose tight bounds fall in one downsampling voxel: one lookup for
-            // all its points (ascending within the voxel, so the first is the lowest).
-            if (run.voxel != RegionRun::partial) {
-                const Box& bounds = index_voxels[run.voxel].bounds;
-                const auto v = voxel(bounds.min);
-                if (v == voxel(bounds.max)) {
-                    const std::uint32_t slot = slot_for(v, order[run.begin]);
-                    Sum& sum = voxels[slot];
-                    sum.xyz += index_voxels[run.voxel].sum;
-                    if (colors) {
-                        for (std::uint32_t k = run.begin; k < run.end; ++k) add_color(sum, order[k]);
-                    }
-                    sum.count += run.end - run.begin;
-                    sum.first = std::min(sum.first, order[run.begin]);
-                    if (normals) slot_of.insert(slot_of.end(), run.end - run.begin, slot);
+            if (!run.whole_voxels()) {
+                for (std::uint32_t k = run.begin; k < run.end; ++k) add_point(order[k], points[k]);
+                continue;
+            }
+            for (std::uint32_t iv = run.voxel_begin; iv < run.voxel_end; ++iv) {
+                const PointIndexVoxel& index_voxel = index_voxels[iv];
+                // A whole index voxel whose tight bounds fall in one downsampling voxel: one lookup
+                // for all its points (ascending within the voxel, so the first is the lowest).
+                const auto v = voxel(index_voxel.bounds.min);
+                if (v != voxel(index_voxel.bounds.max)) {
+                    for (std::uint32_t k = index_voxel.begin; k < index_voxel.end; ++k) add_point(order[k], points[k]);
                     continue;
                 }
+                const std::uint32_t slot = slot_for(v, order[index_voxel.begin]);
+                Sum& sum = voxels[slot];
+                sum.xyz += index_voxel.sum;
+                if (!color_sums.empty()) {
+                    for (int c = 0; c < 3; ++c) sum.rgb[c] += color_sums[iv][c];
+                } else if (colors) {
+                    for (std::uint32_t k = index_voxel.begin; k < index_voxel.end; ++k) add_color(sum, order[k]);
+                }
+                sum.count += index_voxel.size();
+                sum.first = std::min(sum.first, order[index_voxel.begin]);
+                if (normals) slot_of.insert(slot_of.end(), index_voxel.size(), slot);
             }
-            for (std::uint32_t k = run.begin; k < run.end; ++k) add_point(order[k], points[k]);
         }
     }
 
@@ -614,9 +655,12 @@ RegionOutput downsample_region(const PointCloud& cloud, const RegionMembers& reg
     }
     if (colors) {
         for (const Sum& sum : voxels) {
-            // Rounded to nearest: (2 sum + count) / (2 count) in integers.
-            auto mean = [&](std::uint32_t total) {
-                return std::uint8_t((2 * std::uint64_t(total) + sum.count) / (2 * std::uint64_t(sum.count)));
+            // Rounded to nearest: floor((2 sum + count) / (2 count)). In double, which is exact here
+            // and much cheaper than a 64-bit division: both operands are integers below 2^45, and a
+            // quotient below 256 that is not an integer is at least 2^-33 from one, far more than
+            // its rounding error.
+            auto mean = [&](std::uint64_t total) {
+                return std::uint8_t((2.0 * double(total) + double(sum.count)) / (2.0 * double(sum.count)));
             };
             out.colors.push_back({mean(sum.rgb[0]), mean(sum.rgb[1]), mean(sum.rgb[2])});
         }

@@ -37,7 +37,7 @@ RecognitionResult recognize(const Model& model, const PointCloud& scene, const R
     const PointCloud* used = &scene;
     if (foveation.config != nullptr && foveation.mode != FoveationMode::none) {
         const auto t = Clock::now();
-        const PointIndex index(scene.points);
+        const PointIndex index(scene);
         foveated = foveate(scene, index, *foveation.config, foveation.mode, foveation.single_structure);
         used = &foveated.cloud;
         result.timings.foveate = elapsed_ms(t);

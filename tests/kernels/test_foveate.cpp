@@ -335,6 +335,58 @@ TEST(Foveate, RealSceneMatchesReference)
     EXPECT_LT(result.cloud.size(), treated.members.size());
     // Every kept point's source position is a pixel of the 640x480 scan.
     for (std::uint32_t source : result.cloud.source_index) EXPECT_LT(source, 640u * 480u);
+
+    // Runs are whole voxels (contiguous, their points exactly) or parts of one voxel, and together
+    // they are the members.
+    const auto voxels = index.voxels();
+    const auto order = index.point_order();
+    std::size_t whole = 0;
+    for (int r = 0; r < treated.region_count(); ++r) {
+        std::vector<std::uint32_t> from_runs;
+        for (std::uint32_t i = treated.run_offsets[std::size_t(r)]; i < treated.run_offsets[std::size_t(r) + 1]; ++i) {
+            const RegionRun& run = treated.runs[i];
+            if (run.whole_voxels()) {
+                ++whole;
+                EXPECT_EQ(run.begin, voxels[run.voxel_begin].begin);
+                EXPECT_EQ(run.end, voxels[run.voxel_end - 1].end);
+            }
+            from_runs.insert(from_runs.end(), order.begin() + run.begin, order.begin() + run.end);
+        }
+        const auto members = treated.region(r / (treated.levels + 1), r % (treated.levels + 1));
+        EXPECT_EQ(from_runs, std::vector<std::uint32_t>(members.begin(), members.end())) << "region " << r;
+    }
+    EXPECT_GT(whole, 0u);
+}
+
+// An index built from a coloured cloud keeps colour sums per voxel, and downsampling with them
+// gives the colours that reading every point's colour gives.
+TEST(Foveate, VoxelColourSumsGiveTheSameColours)
+{
+    MFPC_SHARED_FILE_OR_SKIP(scene_path, "milk_cartoon_all_small_clorox.pcd");
+    const auto config_path = std::filesystem::path(MFPC_SOURCE_DIR) / "examples/configs/milk_pair_two.json";
+    if (!std::filesystem::exists(config_path)) GTEST_SKIP() << config_path << " is absent";
+    const PointCloud cloud = read_cloud(scene_path);
+    ASSERT_TRUE(cloud.has_colors());
+    const FoveationConfig config = read_foveation_config(config_path);
+    const PointIndex with_sums(cloud);
+    const PointIndex without_sums(cloud.points);
+    ASSERT_EQ(with_sums.voxel_color_sums().size(), with_sums.voxels().size());
+    EXPECT_TRUE(without_sums.voxel_color_sums().empty());
+
+    const FoveatedCloud a = foveate(cloud, with_sums, config, FoveationMode::mfpc);
+    const FoveatedCloud b = foveate(cloud, without_sums, config, FoveationMode::mfpc);
+    EXPECT_EQ(a.cloud.points, b.cloud.points);
+    EXPECT_EQ(a.cloud.colors, b.cloud.colors);
+    EXPECT_EQ(a.cloud.source_index, b.cloud.source_index);
+    EXPECT_EQ(a.cloud.colors.size(), a.cloud.size());
+}
+
+TEST(PointIndexColours, MismatchedColoursAreAnError)
+{
+    PointCloud cloud;
+    cloud.points = test::random_points(100, 3);
+    cloud.colors.resize(99);
+    EXPECT_THROW(PointIndex{cloud}, Error);
 }
 
 }  // namespace

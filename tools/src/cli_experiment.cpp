@@ -294,7 +294,7 @@ void run_experiment_command(const ExperimentOptions& options, const GlobalOption
 
     // A picture of each strategy's foveated scene: the points it kept, coloured by region, in the
     // sensor's view (a serial strategy's single runs drawn together).
-    const PointIndex index(scene.points);
+    const PointIndex index(scene);
     for (std::size_t i = 0; i < config.strategies.size(); ++i) {
         const ExperimentStrategy& s = config.strategies[i];
         const std::filesystem::path image = directory / ("strategy_" + std::to_string(i + 1) + ".png");

@@ -96,7 +96,7 @@ void run_foveate(const FoveateOptions& options, const GlobalOptions& global)
         single_structure = std::max(options.structure, 0);
     }
 
-    const PointIndex index(cloud.points, PointIndexParams{options.index_voxel});
+    const PointIndex index(cloud, PointIndexParams{options.index_voxel});
     timings["index"] = clock.lap_ms();
     FoveatedCloud result;
     if (mode == FoveationMode::none) {

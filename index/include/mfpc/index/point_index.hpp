@@ -1,5 +1,6 @@
 #pragma once
 
+#include <array>
 #include <cstddef>
 #include <cstdint>
 #include <memory>
@@ -49,6 +50,9 @@ struct PointIndexLeaf {
 class PointIndex {
 public:
     explicit PointIndex(std::span<const Point> points, const PointIndexParams& params = {});
+    // Indexes the cloud's points and, when it has colours, also keeps each voxel's colour sums, so
+    // voxel downsampling of a coloured cloud takes whole voxels without reading their colours.
+    explicit PointIndex(const PointCloud& cloud, const PointIndexParams& params = {});
     ~PointIndex();
     PointIndex(PointIndex&&) noexcept;
     PointIndex& operator=(PointIndex&&) noexcept;
@@ -68,6 +72,10 @@ public:
     // A copy (12 bytes a point) that lets kernels read a voxel's points from contiguous memory
     // instead of gathering them across the cloud.
     std::span<const Point> ordered_points() const { return ordered_points_; }
+    // Per voxel (as voxels()), the sums of its points' r, g and b, when built from a coloured cloud;
+    // empty otherwise. colors() is the view of the colours they were summed from.
+    std::span<const std::array<std::uint64_t, 3>> voxel_color_sums() const { return voxel_color_sums_; }
+    std::span<const Rgb> colors() const { return colors_; }
 
     // Indices of the points inside `box` (closed), ascending, appended to `out` after clearing it.
     void points_in_box(const Box& box, std::vector<std::uint32_t>& out) const;
@@ -86,6 +94,8 @@ private:
     std::vector<PointIndexVoxel> voxels_;
     std::vector<std::uint32_t> point_order_;
     std::vector<Point> ordered_points_;
+    std::span<const Rgb> colors_;
+    std::vector<std::array<std::uint64_t, 3>> voxel_color_sums_;
 };
 
 }  // namespace mfpc

@@ -12,12 +12,14 @@
 namespace mfpc {
 
 // A stretch of the index's point order (positions begin..end of PointIndex::point_order()) that
-// lies in one region; `voxel` names the index voxel when the run is that whole voxel.
+// lies in one region. When the stretch is made of whole index voxels, they are voxel_begin ..
+// voxel_end of PointIndex::voxels(); otherwise that range is empty (part of one voxel).
 struct RegionRun {
-    static constexpr std::uint32_t partial = 0xFFFFFFFFu;
     std::uint32_t begin = 0;
     std::uint32_t end = 0;
-    std::uint32_t voxel = partial;
+    std::uint32_t voxel_begin = 0;
+    std::uint32_t voxel_end = 0;
+    bool whole_voxels() const { return voxel_end > voxel_begin; }
 };
 
 // The members of every level region (structure l, level k) of a foveation, before downsampling.
