@@ -13,14 +13,18 @@ namespace mfpc::detail {
 using Candidate = std::pair<float, std::uint32_t>;
 
 // Keeps `best` the sorted `want` smallest candidates seen. For the small k of normal estimation an
-// insertion beats a heap, and most candidates fail the first compare.
+// insertion from the back beats a heap (and vector::insert, whose memmove call cost more than the
+// few moves it makes), and most candidates fail the first compare.
 inline void keep_nearest(std::vector<Candidate>& best, std::size_t want, const Candidate& candidate)
 {
     if (best.size() == want) {
         if (!(candidate < best.back())) return;
-        best.pop_back();
+    } else {
+        best.push_back(candidate);
     }
-    best.insert(std::upper_bound(best.begin(), best.end(), candidate), candidate);
+    std::size_t i = best.size() - 1;
+    for (; i > 0 && candidate < best[i - 1]; --i) best[i] = best[i - 1];
+    best[i] = candidate;
 }
 
 }  // namespace mfpc::detail

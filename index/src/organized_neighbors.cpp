@@ -23,6 +23,11 @@ OrganizedNeighbors::OrganizedNeighbors(const PointCloud& cloud, const Camera& ca
     if (window < 1) throw Error("organized neighbours", "the window must be at least 1 pixel");
     pixels_.assign(cloud.source_size(), -1);
     for (std::size_t i = 0; i < cloud.size(); ++i) pixels_[cloud.source_position(i)] = std::int32_t(i);
+    for (int dy = -window; dy <= window; ++dy)
+        for (int dx = -window; dx <= window; ++dx) offsets_.emplace_back(dx, dy);
+    std::stable_sort(offsets_.begin(), offsets_.end(), [](const auto& a, const auto& b) {
+        return a.first * a.first + a.second * a.second < b.first * b.first + b.second * b.second;
+    });
 }
 
 void OrganizedNeighbors::knn_search_batch(std::span<const Point> queries, int k, const NeighborGrid& grid,
@@ -51,15 +56,15 @@ void OrganizedNeighbors::knn_search_batch(std::span<const Point> queries, int k,
             const long u = std::lround(camera_.fx * a + camera_.cx), v = std::lround(camera_.fy * b + camera_.cy);
             if (u < 0 || v < 0 || u >= long(camera_.width) || v >= long(camera_.height)) continue;
             best.clear();
-            for (long y = std::max(0L, v - window_); y <= std::min(long(camera_.height) - 1, v + window_); ++y) {
-                for (long x = std::max(0L, u - window_); x <= std::min(long(camera_.width) - 1, u + window_); ++x) {
-                    const std::int32_t i = pixels_[std::size_t(y) * camera_.width + std::size_t(x)];
-                    if (i < 0) continue;
-                    const Point& p = points_[std::size_t(i)];
-                    // NeighborGrid's arithmetic, so the distances are its distances.
-                    const float dx = p.x() - center.x(), dy = p.y() - center.y(), dz = p.z() - center.z();
-                    detail::keep_nearest(best, want, {dx * dx + dy * dy + dz * dz, std::uint32_t(i)});
-                }
+            for (const auto& [ox, oy] : offsets_) {
+                const long x = u + ox, y = v + oy;
+                if (x < 0 || y < 0 || x >= long(camera_.width) || y >= long(camera_.height)) continue;
+                const std::int32_t i = pixels_[std::size_t(y) * camera_.width + std::size_t(x)];
+                if (i < 0) continue;
+                const Point& p = points_[std::size_t(i)];
+                // NeighborGrid's arithmetic, so the distances are its distances.
+                const float dx = p.x() - center.x(), dy = p.y() - center.y(), dz = p.z() - center.z();
+                detail::keep_nearest(best, want, {dx * dx + dy * dy + dz * dz, std::uint32_t(i)});
             }
             if (best.size() < want) continue;
             // Distance from the query to the planes x = (a ± δx) z and y = (b ± δy) z through the

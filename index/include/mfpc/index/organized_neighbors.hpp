@@ -2,6 +2,7 @@
 
 #include <cstdint>
 #include <span>
+#include <utility>
 #include <vector>
 
 #include "mfpc/core/camera.hpp"
@@ -33,6 +34,9 @@ private:
     Camera camera_;
     int window_;
     std::vector<std::int32_t> pixels_;  // point index per pixel, -1 where no return
+    // The window's pixel offsets, nearest the centre first: near pixels hold near points, so the
+    // k best fill early and most later candidates fail a single compare.
+    std::vector<std::pair<int, int>> offsets_;
 };
 
 }  // namespace mfpc
