@@ -3,6 +3,7 @@
 // Private to index/: the k-best list shared by the grid and the organized k-nearest searches.
 
 #include <algorithm>
+#include <cassert>
 #include <cstdint>
 #include <utility>
 #include <vector>
@@ -15,8 +16,10 @@ using Candidate = std::pair<float, std::uint32_t>;
 // Keeps `best` the sorted `want` smallest candidates seen. For the small k of normal estimation an
 // insertion from the back beats a heap (and vector::insert, whose memmove call cost more than the
 // few moves it makes), and most candidates fail the first compare.
+// want must be positive: callers return before searching when no neighbour is wanted.
 inline void keep_nearest(std::vector<Candidate>& best, std::size_t want, const Candidate& candidate)
 {
+    assert(want > 0);
     if (best.size() == want) {
         if (!(candidate < best.back())) return;
     } else {

@@ -23,10 +23,13 @@ OrganizedNeighbors::OrganizedNeighbors(const PointCloud& cloud, const Camera& ca
     if (window < 1) throw Error("organized neighbours", "the window must be at least 1 pixel");
     pixels_.assign(cloud.source_size(), -1);
     for (std::size_t i = 0; i < cloud.size(); ++i) pixels_[cloud.source_position(i)] = std::int32_t(i);
-    for (int dy = -window; dy <= window; ++dy)
-        for (int dx = -window; dx <= window; ++dx) offsets_.emplace_back(dx, dy);
+    // Offsets past the image's extent never land on a pixel: a window wider than the image visits
+    // the whole image, and needs no more offsets (nor a product that overflows).
+    const int reach = int(std::min<long>(window, long(std::max(camera.width, camera.height))));
+    for (int dy = -reach; dy <= reach; ++dy)
+        for (int dx = -reach; dx <= reach; ++dx) offsets_.emplace_back(dx, dy);
     std::stable_sort(offsets_.begin(), offsets_.end(), [](const auto& a, const auto& b) {
-        return a.first * a.first + a.second * a.second < b.first * b.first + b.second * b.second;
+        return long(a.first) * a.first + long(a.second) * a.second < long(b.first) * b.first + long(b.second) * b.second;
     });
 }
 

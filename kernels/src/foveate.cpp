@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <array>
 #include <bit>
+#include <cassert>
 #include <cmath>
 #include <limits>
 #include <numeric>
@@ -39,7 +40,7 @@ int smallest_axis(AxisCounts counts) { return std::min(std::min(counts[0], count
 
 // The level boxes of every structure as faces, the three axes side by side. The boxes are nested,
 // so on each axis the lower faces ascend with k and the upper ones descend: box k holds coordinate
-// x on an axis exactly for k < min(#{k : lower_k <= x}, #{k : upper_k >= x}), and holds a point
+// x on an axis exactly for k < min(#{j : lower_j <= x}, #{j : upper_j >= x}), and holds a point
 // (or bounds) exactly when it does on all three axes. A level is thus a count of comparisons, made
 // for the three axes at once and without a branch: written as box tests, labelling spent most of
 // its time in mispredicted branches.
@@ -222,7 +223,9 @@ std::vector<Emitted> label_runs(const PointIndex& index, const RegionTable& tabl
     };
     auto emit_whole = [&](const std::vector<Reach>& reach, std::uint32_t voxel_begin, std::uint32_t voxel_end,
                           Emitted& out) {
-        // narrow() keeps only structures that reach the bounds, so a whole range here has a level >= 0.
+        // narrow() keeps only structures that reach the bounds, so a whole range here has a level >= 0;
+        // callers pass a non-empty voxel range (a leaf holds at least one voxel).
+        assert(voxel_end > voxel_begin);
         std::uint16_t best = no_region;
         for (const Reach& r : reach) best = std::min(best, table.rank[table.region(r.structure, r.levels.lowest)]);
         const std::uint32_t begin = voxels[voxel_begin].begin;
@@ -614,8 +617,10 @@ RegionOutput downsample_region(const PointCloud& cloud, const RegionMembers& reg
         const auto order = region.index->point_order();
         const auto points = region.index->ordered_points();
         const auto index_voxels = region.index->voxels();
-        // The index's colour sums, when they were taken from this cloud's colours.
-        const auto color_sums = colors && region.index->colors().data() == cloud.colors.data()
+        // The index's colour sums, when they were taken from this cloud's colours (same storage and
+        // size: an index built from another or since-resized colour array must not be trusted).
+        const auto color_sums = colors && region.index->colors().data() == cloud.colors.data() &&
+                                        region.index->colors().size() == cloud.colors.size()
                                     ? region.index->voxel_color_sums()
                                     : std::span<const std::array<std::uint64_t, 3>>();
         for (const RegionRun& run : region.runs) {

@@ -41,12 +41,12 @@ PointCloud synthetic_view(std::uint32_t width, std::uint32_t height, std::uint32
     return cloud;
 }
 
-void expect_same_as_grid(const PointCloud& cloud, int k, std::size_t stride, float cell)
+void expect_same_as_grid(const PointCloud& cloud, int k, std::size_t stride, float cell, int window = 3)
 {
     const auto camera = fit_camera(cloud);
     ASSERT_TRUE(camera.has_value());
     const NeighborGrid grid(cloud.points, cell);
-    const OrganizedNeighbors organized(cloud, *camera);
+    const OrganizedNeighbors organized(cloud, *camera, window);
     std::vector<Point> queries;
     for (std::size_t i = 0; i < cloud.size(); i += stride) queries.push_back(cloud.points[i]);
     queries.push_back(Point(0.01f, 0.02f, 0.95f));  // off the cloud, inside the image
@@ -65,6 +65,14 @@ TEST(OrganizedNeighbors, SameNeighboursAsTheGridOnASyntheticView)
 {
     const PointCloud cloud = synthetic_view(160, 120, 3);
     for (int k : {1, 10, 30}) expect_same_as_grid(cloud, k, 1, 0.02f);
+}
+
+TEST(OrganizedNeighbors, AWindowWiderThanTheImageVisitsTheWholeImage)
+{
+    // Every query is then settled in the image alone; the offsets stop at the image's extent
+    // instead of growing with the window (2^30 would overflow their count).
+    const PointCloud cloud = synthetic_view(24, 18, 5);
+    for (int window : {23, 24, 1 << 30}) expect_same_as_grid(cloud, 8, 1, 0.02f, window);
 }
 
 TEST(OrganizedNeighbors, SameNeighboursAsTheGridOnTheRealScene)

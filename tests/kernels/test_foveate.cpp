@@ -192,9 +192,12 @@ TEST(Foveate, BitIdenticalAtAnyThreadCount)
     PointCloud cloud;
     cloud.points = test::random_points(60000, 9);
     cloud.width = std::uint32_t(cloud.size());
+    // Coloured, so the index's colour sums and the colour means are covered too.
+    for (std::size_t i = 0; i < cloud.size(); ++i)
+        cloud.colors.push_back({std::uint8_t(i * 7), std::uint8_t(i * 13), std::uint8_t(i * 31)});
     FoveationConfig config;
     config.structures = random_structures(10, 6, 3);
-    const PointIndex index(cloud.points, {0.02f});
+    const PointIndex index(cloud, {0.02f});
 
     std::vector<FoveatedCloud> results;
     for (const std::size_t threads : {1u, 2u, 4u}) {
@@ -210,6 +213,7 @@ TEST(Foveate, BitIdenticalAtAnyThreadCount)
         const FoveatedCloud& b = results[i];
         EXPECT_EQ(a.cloud.points, b.cloud.points) << "result " << i;
         EXPECT_EQ(a.cloud.source_index, b.cloud.source_index) << "result " << i;
+        EXPECT_EQ(a.cloud.colors, b.cloud.colors) << "result " << i;
         EXPECT_EQ(a.labels, b.labels) << "result " << i;
     }
 }
@@ -336,8 +340,8 @@ TEST(Foveate, RealSceneMatchesReference)
     // Every kept point's source position is a pixel of the 640x480 scan.
     for (std::uint32_t source : result.cloud.source_index) EXPECT_LT(source, 640u * 480u);
 
-    // Runs are whole voxels (contiguous, their points exactly) or parts of one voxel, and together
-    // they are the members.
+    // Runs are whole voxels (contiguous, their points exactly) or points tested one by one (possibly
+    // across voxels), and together they are the members.
     const auto voxels = index.voxels();
     const auto order = index.point_order();
     std::size_t whole = 0;
@@ -379,6 +383,34 @@ TEST(Foveate, VoxelColourSumsGiveTheSameColours)
     EXPECT_EQ(a.cloud.colors, b.cloud.colors);
     EXPECT_EQ(a.cloud.source_index, b.cloud.source_index);
     EXPECT_EQ(a.cloud.colors.size(), a.cloud.size());
+}
+
+TEST(Foveate, ColourMeansAreRoundedIntegerMeans)
+{
+    // One structure, no foveation to speak of: level 0 covers everything and its voxel (1 m) holds
+    // all four points, whole index voxels and single points alike.
+    PointCloud cloud;
+    cloud.points = {{0.1f, 0.1f, 0.1f}, {0.2f, 0.1f, 0.1f}, {0.1f, 0.3f, 0.1f}, {0.4f, 0.4f, 0.4f}};
+    cloud.width = 4;
+    cloud.colors = {{255, 0, 10}, {254, 1, 11}, {0, 2, 11}, {1, 2, 11}};
+    FoveationConfig config;
+    FoveatedStructure s;
+    s.levels = 1;
+    s.outer_min = {0.0f, 0.0f, 0.0f};
+    s.outer_size = {0.5f, 0.5f, 0.5f};
+    s.fovea_size = {0.01f, 0.01f, 0.01f};
+    s.density_outer = 1.0f;
+    s.density_fovea = 1.0f;
+    config.structures = {s};
+    for (const float cell : {0.05f, 1.0f}) {
+        const PointIndex index(cloud, {cell});
+        const FoveatedCloud out = foveate(cloud, index, config, FoveationMode::mfpc);
+        ASSERT_EQ(out.cloud.size(), 1u);
+        // r: 510 / 4 = 127.5 rounds up; g: 5 / 4 = 1.25 rounds down; b: 43 / 4 = 10.75 rounds up.
+        EXPECT_EQ(out.cloud.colors[0].r, 128);
+        EXPECT_EQ(out.cloud.colors[0].g, 1);
+        EXPECT_EQ(out.cloud.colors[0].b, 11);
+    }
 }
 
 TEST(PointIndexColours, MismatchedColoursAreAnError)

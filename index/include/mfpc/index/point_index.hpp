@@ -51,8 +51,11 @@ class PointIndex {
 public:
     explicit PointIndex(std::span<const Point> points, const PointIndexParams& params = {});
     // Indexes the cloud's points and, when it has colours, also keeps each voxel's colour sums, so
-    // voxel downsampling of a coloured cloud takes whole voxels without reading their colours.
+    // voxel downsampling of a coloured cloud takes whole voxels without reading their colours. As for
+    // the points, the cloud's colours must outlive the index and stay unchanged: the sums are not
+    // recomputed, and a temporary cloud would leave the index dangling, hence the deleted overload.
     explicit PointIndex(const PointCloud& cloud, const PointIndexParams& params = {});
+    PointIndex(PointCloud&&, const PointIndexParams& = {}) = delete;
     ~PointIndex();
     PointIndex(PointIndex&&) noexcept;
     PointIndex& operator=(PointIndex&&) noexcept;
