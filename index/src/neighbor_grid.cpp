@@ -251,13 +251,35 @@ bool NeighborGrid::nearest(const Point& center, float radius, std::uint32_t& ind
             }
         }
     };
-    // Shells outward from the centre's cell, as knn_search, until the nearest point found is closer
-    // than anything outside the block, or the block holds the whole radius.
-    const int max_ring = int(std::ceil(radius * inverse_cell_)) + 1;
-    for (int ring = 0; ring <= max_ring; ++ring) {
-        for_each_shell_range(c, ring, consider);
-        const float margin = shell_margin(center, c, ring);
-        if (margin > 0.0f && (best < margin * margin || radius <= margin)) break;
+    // The centre's own cell first: on a surface its nearest point is usually a fraction of a cell
+    // away, and then only the few cells within that distance remain, not whole shells around it
+    // (ICP and verification ask this of every model point, many times over).
+    std::uint32_t begin = 0, end = 0;
+    if (row_range(c.y(), c.z(), c.x(), c.x(), begin, end)) consider(begin, end);
+    // Widened by a relative 1e-5, as shell_margin is narrowed: floor(p / cell) in float may put a
+    // point a rounding error outside its nominal cell.
+    const float reach = (found ? std::sqrt(best) : radius) * (1.0f + 1e-5f) +
+                        1e-5f * (center.cwiseAbs().maxCoeff() + cell_size_);
+    // Clamped to the occupied cells in float before the int conversion, as in radius_search.
+    const Eigen::Vector3i lo = ((center.array() - reach) * inverse_cell_)
+                                   .floor()
+                                   .max(min_cell_.cast<float>().array())
+                                   .min(max_cell_.cast<float>().array() + 1.0f)
+                                   .cast<int>();
+    const Eigen::Vector3i hi = ((center.array() + reach) * inverse_cell_)
+                                   .floor()
+                                   .min(max_cell_.cast<float>().array())
+                                   .max(min_cell_.cast<float>().array() - 1.0f)
+                                   .cast<int>();
+    for (int z = lo.z(); z <= hi.z(); ++z) {
+        for (int y = lo.y(); y <= hi.y(); ++y) {
+            if (y == c.y() && z == c.z()) {  // the centre's row, less its cell
+                if (row_range(y, z, lo.x(), c.x() - 1, begin, end)) consider(begin, end);
+                if (row_range(y, z, c.x() + 1, hi.x(), begin, end)) consider(begin, end);
+            } else if (row_range(y, z, lo.x(), hi.x(), begin, end)) {
+                consider(begin, end);
+            }
+        }
     }
     if (found) squared_distance_out = best;
     return found;

@@ -98,6 +98,47 @@ TEST(NeighborGrid, NearestWithinRadiusMatchesBruteForce)
     }
 }
 
+TEST(NeighborGrid, NearestBreaksTiesByIndexOnCellFaces)
+{
+    // Points on a lattice of the cell size, so every one lies on cell faces, shuffled and some
+    // duplicated; queries half a step off the lattice are equidistant from 2, 4 or 8 of them.
+    const float step = 0.125f;  // exact in binary, so the ties are exact
+    std::vector<Point> points;
+    for (int x = 0; x < 8; ++x)
+        for (int y = 0; y < 8; ++y)
+            for (int z = 0; z < 8; ++z) points.emplace_back(step * float(x), step * float(y), step * float(z));
+    std::mt19937 rng(8);
+    std::shuffle(points.begin(), points.end(), rng);
+    for (std::size_t i = 0; i < 50; ++i) points.push_back(points[i * 7]);
+    std::uniform_int_distribution<int> half_steps(-2, 16);
+    for (float cell : {step, 2.0f * step}) {
+        const NeighborGrid grid(points, cell);
+        for (int q = 0; q < 400; ++q) {
+            const Point center(0.5f * step * float(half_steps(rng)), 0.5f * step * float(half_steps(rng)),
+                               0.5f * step * float(half_steps(rng)));
+            const float radius = step * float(1 + q % 3);
+            std::uint32_t expected = 0;
+            float expected_d2 = radius * radius;
+            bool expected_found = false;
+            for (std::uint32_t i = 0; i < points.size(); ++i) {
+                const float d2 = brute_distance(points[i], center);
+                if (d2 < expected_d2) {
+                    expected_found = true;
+                    expected_d2 = d2;
+                    expected = i;
+                }
+            }
+            std::uint32_t index = 0;
+            float d2 = 0.0f;
+            ASSERT_EQ(grid.nearest(center, radius, index, d2), expected_found) << q;
+            if (expected_found) {
+                EXPECT_EQ(index, expected) << q;
+                EXPECT_EQ(d2, expected_d2) << q;
+            }
+        }
+    }
+}
+
 TEST(NeighborGrid, FewerPointsThanKAndFarQueries)
 {
     const std::vector<Point> points = {Point(0, 0, 0), Point(1, 0, 0), Point(0, 2, 0)};
