@@ -17,8 +17,8 @@ namespace mfpc {
 // of the (2w+1)^2 pixels around the query's pixel. They are the true k nearest when the k-th lies
 // closer than any point outside the window can: such a point projects w+1 pixels away or more, so
 // it lies beyond one of four planes through the sensor, whose distance from the query bounds it
-// (the camera's fit residual is taken off the window). Queries the bound cannot settle go to the
-// grid. The results are NeighborGrid::knn_search's, bit for bit.
+// (the camera's fit residual is taken off the window). Queries the bound cannot settle try a window
+// twice as wide, then go to the grid. The results are NeighborGrid::knn_search's, bit for bit.
 class OrganizedNeighbors {
 public:
     // `cloud` must be the cloud the grid passed to knn_search_batch was built over (same points,
@@ -30,13 +30,21 @@ public:
                           std::span<std::uint32_t> indices, std::span<float> squared_distances) const;
 
 private:
+    struct Stage {
+        int window;
+        // The window's pixel offsets, nearest the centre first: near pixels hold near points, so
+        // the k best fill early and most later candidates fail a single compare.
+        std::vector<std::pair<int, int>> offsets;
+    };
+    // Searches the stage's window around each open query; marks those it settles.
+    void search_window(const Stage& stage, std::span<const Point> queries, std::span<const std::uint32_t> open,
+                       std::size_t want, std::span<std::uint32_t> indices, std::span<float> squared_distances,
+                       std::span<std::uint8_t> settled) const;
+
     std::span<const Point> points_;
     Camera camera_;
-    int window_;
     std::vector<std::int32_t> pixels_;  // point index per pixel, -1 where no return
-    // The window's pixel offsets, nearest the centre first: near pixels hold near points, so the
-    // k best fill early and most later candidates fail a single compare.
-    std::vector<std::pair<int, int>> offsets_;
+    std::vector<Stage> stages_;         // the window, then a wider one
 };
 
 }  // namespace mfpc
