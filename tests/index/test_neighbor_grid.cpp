@@ -98,6 +98,29 @@ TEST(NeighborGrid, NearestWithinRadiusMatchesBruteForce)
     }
 }
 
+TEST(NeighborGrid, AnExtentOfMillionsOfCellsPerAxisStillFindsEveryNeighbour)
+{
+    // Almost 2^21 cells per axis: the cell keys take 63 bits, the most the grid's sort handles.
+    std::mt19937 rng(6);
+    std::uniform_real_distribution<float> coordinate(-1000.0f, 1000.0f);
+    std::vector<Point> points;
+    for (int i = 0; i < 300; ++i) points.emplace_back(coordinate(rng), coordinate(rng), coordinate(rng));
+    for (int i = 0; i < 300; ++i) points.push_back(points[std::size_t(i)] + Point(0.0004f, -0.0003f, 0.0002f));
+    const NeighborGrid grid(points, 0.001f);
+    std::vector<std::uint32_t> indices;
+    std::vector<float> distances;
+    for (std::uint32_t q = 0; q < points.size(); q += 7) {
+        grid.knn_search(points[q], 2, indices, distances);
+        ASSERT_EQ(indices.size(), 2u);
+        const std::uint32_t twin = q < 300 ? q + 300 : q - 300;
+        EXPECT_EQ(indices[0], q);
+        EXPECT_EQ(indices[1], twin);
+        grid.radius_search(points[q], 0.01f, indices, distances);
+        std::sort(indices.begin(), indices.end());
+        EXPECT_EQ(indices, (std::vector<std::uint32_t>{std::min(q, twin), std::max(q, twin)}));
+    }
+}
+
 TEST(NeighborGrid, NearestBreaksTiesByIndexOnCellFaces)
 {
     // Points on a lattice of the cell size, so every one lies on cell faces, shuffled and some
