@@ -43,15 +43,24 @@ OrganizedNeighbors::OrganizedNeighbors(const PointCloud& cloud, const Camera& ca
     if (window < 1) throw Error("organized neighbours", "the window must be at least 1 pixel");
     pixels_.assign(cloud.source_size(), -1);
     for (std::size_t i = 0; i < cloud.size(); ++i) pixels_[cloud.source_position(i)] = std::int32_t(i);
-    stages_.push_back({window, window_offsets(window, camera)});
+    stages_.push_back(make_stage(window));
     // A query the window cannot settle (an oblique surface, a depth edge, a far and sparse
     // background: 8% of a Kinect view) tries a window twice as wide before the grid, which is far
     // slower there: its cells suit the near, dense surfaces, and sparse points need many shells of
     // them. Twice settles all but about 1 in 2000 on the shared scenes, and cost less than three
     // times.
     if (long(window) < long(std::max(camera.width, camera.height)))
-        stages_.push_back({int(std::min<long>(2L * window, std::numeric_limits<int>::max())),
-                           window_offsets(2L * window, camera)});
+        stages_.push_back(make_stage(int(std::min<long>(2L * window, std::numeric_limits<int>::max()))));
+}
+
+OrganizedNeighbors::Stage OrganizedNeighbors::make_stage(int window) const
+{
+    Stage stage{window, window_offsets(window, camera_), {}, 0};
+    for (const auto& [dx, dy] : stage.offsets) {
+        stage.steps.push_back(std::ptrdiff_t(dy) * std::ptrdiff_t(camera_.width) + dx);
+        stage.reach = std::max<long>(stage.reach, std::abs(dx));
+    }
+    return stage;
 }
 
 void OrganizedNeighbors::knn_search_batch(std::span<const Point> queries, int k, const NeighborGrid& grid,
@@ -107,15 +116,27 @@ void OrganizedNeighbors::search_window(const Stage& stage, std::span<const Point
             const long u = std::lround(camera_.fx * a + camera_.cx), v = std::lround(camera_.fy * b + camera_.cy);
             if (u < 0 || v < 0 || u >= long(camera_.width) || v >= long(camera_.height)) continue;
             best.clear();
-            for (const auto& [ox, oy] : stage.offsets) {
-                const long x = u + ox, y = v + oy;
-                if (x < 0 || y < 0 || x >= long(camera_.width) || y >= long(camera_.height)) continue;
-                const std::int32_t i = pixels_[std::size_t(y) * camera_.width + std::size_t(x)];
-                if (i < 0) continue;
+            auto consider = [&](std::int32_t i) {
+                if (i < 0) return;
                 const Point& p = points_[std::size_t(i)];
                 // NeighborGrid's arithmetic, so the distances are its distances.
                 const float dx = p.x() - center.x(), dy = p.y() - center.y(), dz = p.z() - center.z();
-                detail::keep_nearest(best, want, {dx * dx + dy * dy + dz * dz, std::uint32_t(i)});
+                const float d2 = dx * dx + dy * dy + dz * dz;
+                // Most candidates, once k are held, are farther than all of them: one compare.
+                if (best.size() == want && d2 > best.back().first) return;
+                detail::keep_nearest(best, want, {d2, std::uint32_t(i)});
+            };
+            if (u >= stage.reach && v >= stage.reach && u + stage.reach < long(camera_.width) &&
+                v + stage.reach < long(camera_.height)) {
+                // The whole window lies in the image (most queries): no pixel needs a bounds check.
+                const std::int32_t* centre_pixel = pixels_.data() + std::size_t(v) * camera_.width + std::size_t(u);
+                for (const std::ptrdiff_t step : stage.steps) consider(centre_pixel[step]);
+            } else {
+                for (const auto& [ox, oy] : stage.offsets) {
+                    const long x = u + ox, y = v + oy;
+                    if (x < 0 || y < 0 || x >= long(camera_.width) || y >= long(camera_.height)) continue;
+                    consider(pixels_[std::size_t(y) * camera_.width + std::size_t(x)]);
+                }
             }
             if (best.size() < want) continue;
             // Distance from the query to the planes x = (a ± δx) z and y = (b ± δy) z through the

@@ -1,5 +1,6 @@
 #pragma once
 
+#include <cstddef>
 #include <cstdint>
 #include <span>
 #include <utility>
@@ -35,7 +36,10 @@ private:
         // The window's pixel offsets, nearest the centre first: near pixels hold near points, so
         // the k best fill early and most later candidates fail a single compare.
         std::vector<std::pair<int, int>> offsets;
+        std::vector<std::ptrdiff_t> steps;  // the same offsets in the row-major pixel array
+        long reach = 0;                     // the largest offset on either axis
     };
+    Stage make_stage(int window) const;
     // Searches the stage's window around each open query; marks those it settles.
     void search_window(const Stage& stage, std::span<const Point> queries, std::span<const std::uint32_t> open,
                        std::size_t want, std::span<std::uint32_t> indices, std::span<float> squared_distances,
