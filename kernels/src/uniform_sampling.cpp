@@ -2,12 +2,13 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdint>
+#include <limits>
 #include <string>
 #include <utility>
 
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
-#include <tbb/parallel_sort.h>
 
 #include "mfpc/core/error.hpp"
 
@@ -15,6 +16,7 @@ namespace mfpc {
 namespace {
 
 constexpr int axis_bits = 21;
+constexpr std::uint64_t empty_cube = std::numeric_limits<std::uint64_t>::max();
 
 void check_radius(float radius, const char* what)
 {
@@ -56,36 +58,45 @@ void sample_group(std::span<const Point> points, std::span<const std::uint32_t> 
     if ((hi - lo).maxCoeff() >= (1 << axis_bits))
         throw Error("uniform_sampling", "the cloud spans more than 2^21 cubes of " + std::to_string(radius) +
                                             " m on one axis; use a larger radius");
-    // (cube key, member position): sorted, each cube's points are together in ascending index
-    // order, the order PCL visits them in.
-    std::vector<std::pair<std::uint64_t, std::uint32_t>> order(members.size());
-    tbb::parallel_for(tbb::blocked_range<std::size_t>(0, members.size(), 4096), [&](const auto& range) {
-        for (std::size_t i = range.begin(); i < range.end(); ++i) {
-            const Eigen::Vector3i d = cells[i] - lo;
-            order[i] = {(std::uint64_t(d.z()) << (2 * axis_bits)) | (std::uint64_t(d.y()) << axis_bits) |
-                            std::uint64_t(d.x()),
-                        std::uint32_t(i)};
-        }
-    });
-    tbb::parallel_sort(order.begin(), order.end());
-    for (std::size_t begin = 0; begin < order.size();) {
-        const Eigen::Vector3i& cell = cells[order[begin].second];
+    // One pass in ascending index order (the order PCL visits a cube's points in), keeping per cube
+    // the point nearest its centre, the first of equals: a hash table of the cubes, not a sort of
+    // the points.
+    struct Cube {
+        std::uint64_t key = empty_cube;
+        std::uint32_t best = 0;
+        float distance = 0.0f;
+    };
+    std::vector<Cube> table(1024);
+    std::size_t cube_count = 0;
+    auto slot_of = [&](std::uint64_t key) {
+        std::size_t slot = std::size_t((key * 0x9E3779B97F4A7C15ull) >> 32) & (table.size() - 1);
+        while (table[slot].key != key && table[slot].key != empty_cube) slot = (slot + 1) & (table.size() - 1);
+        return slot;
+    };
+    for (std::size_t i = 0; i < members.size(); ++i) {
+        const Eigen::Vector3i d = cells[i] - lo;
+        const std::uint64_t key =
+            (std::uint64_t(d.z()) << (2 * axis_bits)) | (std::uint64_t(d.y()) << axis_bits) | std::uint64_t(d.x());
         // PCL: (ijk + 0.5) * radius in float.
-        const Eigen::Vector3f center = (cell.cast<float>().array() + 0.5f) * radius;
-        std::uint32_t best = members[order[begin].second];
-        float best_distance = pcl_distance(points[best], center);
-        std::size_t end = begin + 1;
-        for (; end < order.size() && order[end].first == order[begin].first; ++end) {
-            const std::uint32_t candidate = members[order[end].second];
-            const float distance = pcl_distance(points[candidate], center);
-            if (distance < best_distance) {
-                best = candidate;
-                best_distance = distance;
+        const Eigen::Vector3f center = (cells[i].cast<float>().array() + 0.5f) * radius;
+        const std::uint32_t point = members[i];
+        const float distance = pcl_distance(points[point], center);
+        Cube& cube = table[slot_of(key)];
+        if (cube.key == empty_cube) {
+            cube = Cube{key, point, distance};
+            if (2 * ++cube_count > table.size()) {  // keep the load under a half
+                std::vector<Cube> old(table.size() * 2);
+                old.swap(table);
+                for (const Cube& c : old)
+                    if (c.key != empty_cube) table[slot_of(c.key)] = c;
             }
+        } else if (distance < cube.distance) {
+            cube.best = point;
+            cube.distance = distance;
         }
-        kept.push_back(best);
-        begin = end;
     }
+    for (const Cube& cube : table)
+        if (cube.key != empty_cube) kept.push_back(cube.best);
 }
 
 }  // namespace
