@@ -100,27 +100,23 @@ std::size_t reference_foveate(const PointCloud& cloud, const FoveationConfig& co
     }
 #define MFPC_REQUIRE_SCENE(state, scene) MFPC_REQUIRE_DATA(state, scene, real_scene)
 
-void BM_RealScene_Ours(benchmark::State& state)
+// Ours on the real scene: the coloured cloud, or its points alone (like for like with the
+// reference, which averages no colours).
+void run_real_scene(benchmark::State& state, bool colours)
 {
     MFPC_REQUIRE_SCENE(state, scene);
     tbb::global_control threads(tbb::global_control::max_allowed_parallelism, std::size_t(state.range(0)));
+    const PointCloud& cloud = colours ? scene->cloud : scene->xyz;
+    const PointIndex& index = colours ? *scene->index : *scene->xyz_index;
     for (auto _ : state) {
-        const FoveationRegions regions = foveation_regions(*scene->index, scene->config.structures, FoveationMode::mfpc);
-        FoveatedCloud result = downsample_regions(scene->cloud, regions, scene->config.structures, scene->config.downsample);
+        const FoveationRegions regions = foveation_regions(index, scene->config.structures, FoveationMode::mfpc);
+        FoveatedCloud result = downsample_regions(cloud, regions, scene->config.structures, scene->config.downsample);
         benchmark::DoNotOptimize(result.cloud.points.data());
     }
 }
 
-void BM_RealScene_OursXyz(benchmark::State& state)
-{
-    MFPC_REQUIRE_SCENE(state, scene);
-    tbb::global_control threads(tbb::global_control::max_allowed_parallelism, std::size_t(state.range(0)));
-    for (auto _ : state) {
-        const FoveationRegions regions = foveation_regions(*scene->xyz_index, scene->config.structures, FoveationMode::mfpc);
-        FoveatedCloud result = downsample_regions(scene->xyz, regions, scene->config.structures, scene->config.downsample);
-        benchmark::DoNotOptimize(result.cloud.points.data());
-    }
-}
+void BM_RealScene_Ours(benchmark::State& state) { run_real_scene(state, true); }
+void BM_RealScene_OursXyz(benchmark::State& state) { run_real_scene(state, false); }
 
 void BM_RealScene_OursLabels(benchmark::State& state)
 {

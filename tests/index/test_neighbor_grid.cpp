@@ -1,5 +1,6 @@
 #include <algorithm>
 #include <random>
+#include <span>
 #include <utility>
 #include <vector>
 
@@ -16,6 +17,31 @@ float brute_distance(const Point& a, const Point& b)
 {
     const float dx = a.x() - b.x(), dy = a.y() - b.y(), dz = a.z() - b.z();
     return dx * dx + dy * dy + dz * dz;
+}
+
+// NeighborGrid::nearest against a scan of every point: the nearest within the radius, the lower
+// index of equals (a strict compare in index order keeps the first).
+void expect_nearest_as_brute_force(const NeighborGrid& grid, std::span<const Point> points, const Point& center,
+                                   float radius, int query)
+{
+    std::uint32_t expected = 0;
+    float expected_d2 = radius * radius;
+    bool expected_found = false;
+    for (std::uint32_t i = 0; i < points.size(); ++i) {
+        const float d2 = brute_distance(points[i], center);
+        if (d2 < expected_d2) {
+            expected_found = true;
+            expected_d2 = d2;
+            expected = i;
+        }
+    }
+    std::uint32_t index = 0;
+    float d2 = 0.0f;
+    ASSERT_EQ(grid.nearest(center, radius, index, d2), expected_found) << "query " << query;
+    if (expected_found) {
+        EXPECT_EQ(index, expected) << "query " << query;
+        EXPECT_EQ(d2, expected_d2) << "query " << query;
+    }
 }
 
 TEST(NeighborGrid, RadiusSearchFindsExactlyThePointsWithinTheRadius)
@@ -76,24 +102,7 @@ TEST(NeighborGrid, NearestWithinRadiusMatchesBruteForce)
         for (int q = 0; q < 300; ++q) {
             const Point center(coordinate(rng), coordinate(rng), coordinate(rng));
             const float radius = 0.01f + 0.05f * float(q % 5);
-            std::uint32_t expected = 0;
-            float expected_d2 = radius * radius;
-            bool expected_found = false;
-            for (std::uint32_t i = 0; i < points.size(); ++i) {
-                const float d2 = brute_distance(points[i], center);
-                if (d2 < expected_d2) {
-                    expected_found = true;
-                    expected_d2 = d2;
-                    expected = i;
-                }
-            }
-            std::uint32_t index = 0;
-            float d2 = 0.0f;
-            ASSERT_EQ(grid.nearest(center, radius, index, d2), expected_found) << q;
-            if (expected_found) {
-                EXPECT_EQ(index, expected);
-                EXPECT_EQ(d2, expected_d2);
-            }
+            expect_nearest_as_brute_force(grid, points, center, radius, q);
         }
     }
 }
@@ -140,24 +149,7 @@ TEST(NeighborGrid, NearestBreaksTiesByIndexOnCellFaces)
             const Point center(0.5f * step * float(half_steps(rng)), 0.5f * step * float(half_steps(rng)),
                                0.5f * step * float(half_steps(rng)));
             const float radius = step * float(1 + q % 3);
-            std::uint32_t expected = 0;
-            float expected_d2 = radius * radius;
-            bool expected_found = false;
-            for (std::uint32_t i = 0; i < points.size(); ++i) {
-                const float d2 = brute_distance(points[i], center);
-                if (d2 < expected_d2) {
-                    expected_found = true;
-                    expected_d2 = d2;
-                    expected = i;
-                }
-            }
-            std::uint32_t index = 0;
-            float d2 = 0.0f;
-            ASSERT_EQ(grid.nearest(center, radius, index, d2), expected_found) << q;
-            if (expected_found) {
-                EXPECT_EQ(index, expected) << q;
-                EXPECT_EQ(d2, expected_d2) << q;
-            }
+            expect_nearest_as_brute_force(grid, points, center, radius, q);
         }
     }
 }
