@@ -259,7 +259,11 @@ bool NeighborGrid::nearest(const Point& center, float radius, std::uint32_t& ind
     if (!cf.allFinite() || (cf.array() < (min_cell_.cast<float>().array() - 1.0f - radius * inverse_cell_)).any() ||
         (cf.array() > (max_cell_.cast<float>().array() + 1.0f + radius * inverse_cell_)).any())
         return false;  // farther than the radius from every cell
-    const Eigen::Vector3i c = cf.cast<int>();
+    // Clamped as in knn_search: with a huge radius the centre may be far outside the grid, and its
+    // cell (and the neighbours of it) must still fit an int. A clamped cell only widens the box.
+    const Eigen::Vector3i c = cf.cwiseMax(min_cell_.cast<float>() - Eigen::Vector3f::Constant(2.0f))
+                                  .cwiseMin(max_cell_.cast<float>() + Eigen::Vector3f::Constant(2.0f))
+                                  .cast<int>();
     bool found = false;
     float best = radius2;
     auto consider = [&](std::uint32_t begin, std::uint32_t end) {

@@ -84,7 +84,7 @@ void sample_group(std::span<const Point> points, std::span<const std::uint32_t> 
         Cube& cube = table[slot_of(key)];
         if (cube.key == empty_cube) {
             cube = Cube{key, point, distance};
-            if (2 * ++cube_count > table.size()) {  // keep the load under a half
+            if (2 * ++cube_count > table.size()) {  // keep the load at most a half
                 std::vector<Cube> old(table.size() * 2);
                 old.swap(table);
                 for (const Cube& c : old)

@@ -49,8 +49,10 @@ private:
     // contraction: avx2 does not enable fma); the version is chosen at load time for the machine.
     using Lanes = float __attribute__((vector_size(32)));
 
-    __attribute__((target_clones("avx2", "default"))) static float lanes(const float* x, const float* y,
-                                                                          std::size_t size, float worst)
+#if defined(__x86_64__) && defined(__GNUC__)
+    __attribute__((target_clones("avx2", "default")))
+#endif
+    static float lanes(const float* x, const float* y, std::size_t size, float worst)
     {
         Lanes sum = {0, 0, 0, 0, 0, 0, 0, 0};
         std::size_t i = 0;

@@ -9,8 +9,8 @@
 namespace mfpc {
 
 // A hashed uniform grid over a cloud for the fixed-radius and k-nearest queries of the descriptor
-// kernels (normals, LRFs, SHOT). Built once in O(n log n); points are copied in cell order so a
-// query reads contiguous memory. Exact: a radius query returns every point with squared distance
+// kernels (normals, LRFs, SHOT). Built once in O(n) (a radix sort by cell); points are copied in
+// cell order so a query reads contiguous memory. Exact: a radius query returns every point with squared distance
 // < radius^2 (strictly, as FLANN), the k-nearest query the k smallest squared distances (ties by
 // the lower index).
 // Squared distances are computed in float as dx*dx + dy*dy + dz*dz, in that order, which is what

@@ -32,7 +32,7 @@ public:
 
 private:
     struct Stage {
-        int window;
+        int window;  // as asked; offsets stop at the image's extent, which covers the same pixels
         // The window's pixel offsets, nearest the centre first: near pixels hold near points, so
         // the k best fill early and most later candidates fail a single compare.
         std::vector<std::pair<int, int>> offsets;
