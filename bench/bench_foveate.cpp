@@ -43,10 +43,8 @@ const RealScene* real_scene()
         s->cloud = read_cloud(path);
         s->config = read_foveation_config(std::filesystem::path(MFPC_SOURCE_DIR) / "examples/configs/milk_pair_two.json");
         s->index = std::make_unique<PointIndex>(s->cloud);
-        s->xyz.points = s->cloud.points;
-        s->xyz.source_index = s->cloud.source_index;
-        s->xyz.width = s->cloud.width;
-        s->xyz.height = s->cloud.height;
+        s->xyz = s->cloud;
+        s->xyz.colors.clear();
         s->xyz_index = std::make_unique<PointIndex>(s->xyz);
         return s;
     }();

@@ -21,7 +21,8 @@ inline void keep_nearest(std::vector<Candidate>& best, std::size_t want, const C
 {
     assert(want > 0);
     if (best.size() == want) {
-        if (!(candidate < best.back())) return;
+        // Most candidates are farther than the k-th best: one float compare, not the pair's.
+        if (candidate.first > best.back().first || !(candidate < best.back())) return;
     } else {
         best.push_back(candidate);
     }

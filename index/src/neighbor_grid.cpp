@@ -18,7 +18,7 @@ namespace mfpc {
 namespace {
 
 constexpr std::uint64_t empty_row = std::numeric_limits<std::uint64_t>::max();
-constexpr int axis_bits = 21;  // cells per axis < 2^21: a 64-bit key holds all three
+constexpr int axis_bits = 21;  // cells per axis < 2^21: a 64-bit key numbers all the cells
 
 inline float squared_distance(const Point& a, const Point& b)
 {
@@ -26,13 +26,6 @@ inline float squared_distance(const Point& a, const Point& b)
     const float dy = a.y() - b.y();
     const float dz = a.z() - b.z();
     return dx * dx + dy * dy + dz * dz;
-}
-
-// The cell key of cell offset d (from the grid's minimum cell): sorting by it orders cells by
-// (z, y, x), so each row of cells is one run.
-inline std::uint64_t cell_key(const Eigen::Vector3i& d)
-{
-    return (std::uint64_t(d.z()) << (2 * axis_bits)) | (std::uint64_t(d.y()) << axis_bits) | std::uint64_t(d.x());
 }
 
 // Fibonacci hashing: the top bits of the product mix every bit of the key.
@@ -73,14 +66,12 @@ NeighborGrid::NeighborGrid(std::span<const Point> points, float cell_size)
     // occupied extent they take 20-30 bits on a room-sized scene at millimetre cells, so a stable
     // radix sort in 11-bit digits takes 2 or 3 passes, where a comparison sort took 10 times as
     // long. Stable from index order, it breaks ties by index, whatever the thread count.
-    const std::uint64_t nx = std::uint64_t(extent.x()) + 1, ny = std::uint64_t(extent.y()) + 1;
-    const std::uint64_t cell_count = nx * ny * (std::uint64_t(extent.z()) + 1);
+    row_length_ = std::uint64_t(extent.x()) + 1;
+    rows_per_slice_ = std::uint64_t(extent.y()) + 1;
+    const std::uint64_t cell_count = row_length_ * rows_per_slice_ * (std::uint64_t(extent.z()) + 1);
     std::vector<std::pair<std::uint64_t, std::uint32_t>> order(points.size()), scratch(points.size());
     tbb::parallel_for(tbb::blocked_range<std::size_t>(0, points.size(), 4096), [&](const auto& range) {
-        for (std::size_t i = range.begin(); i < range.end(); ++i) {
-            const Eigen::Vector3i d = cells[i] - min_cell_;
-            order[i] = {(std::uint64_t(d.z()) * ny + std::uint64_t(d.y())) * nx + std::uint64_t(d.x()), std::uint32_t(i)};
-        }
+        for (std::size_t i = range.begin(); i < range.end(); ++i) order[i] = {cell_key(cells[i]), std::uint32_t(i)};
     });
     constexpr int digit_bits = 11;
     constexpr std::uint64_t digit_mask = (1u << digit_bits) - 1;
@@ -92,11 +83,6 @@ NeighborGrid::NeighborGrid(std::span<const Point> points, float cell_size)
         for (const auto& entry : order) scratch[start[(entry.first >> shift) & digit_mask]++] = entry;
         order.swap(scratch);
     }
-    // Back to the (z, y, x) bit fields the rows are found by; the order is the same.
-    tbb::parallel_for(tbb::blocked_range<std::size_t>(0, points.size(), 4096), [&](const auto& range) {
-        for (std::size_t i = range.begin(); i < range.end(); ++i)
-            order[i].first = cell_key(cells[order[i].second] - min_cell_);
-    });
 
     ordered_points_.resize(points.size());
     ordered_indices_.resize(points.size());
@@ -106,9 +92,9 @@ NeighborGrid::NeighborGrid(std::span<const Point> points, float cell_size)
         ordered_indices_[i] = order[i].second;
         const std::uint64_t key = order[i].first;
         if (i == 0 || key != order[i - 1].first) {
-            cell_x_.push_back(std::int32_t(key & ((1u << axis_bits) - 1)) + min_cell_.x());
+            cell_x_.push_back(std::int32_t(key % row_length_) + min_cell_.x());
             cell_begin_.push_back(std::uint32_t(i));
-            if (i == 0 || (key >> axis_bits) != (order[i - 1].first >> axis_bits)) ++row_count;
+            if (i == 0 || key / row_length_ != order[i - 1].first / row_length_) ++row_count;
         }
     }
     cell_begin_.push_back(std::uint32_t(points.size()));
@@ -118,9 +104,9 @@ NeighborGrid::NeighborGrid(std::span<const Point> points, float cell_size)
     row_mask_ = table_size - 1;
     row_shift_ = 64 - std::countr_zero(table_size);
     for (std::uint32_t begin = 0; begin < cell_x_.size();) {
-        const std::uint64_t row_key = order[cell_begin_[begin]].first >> axis_bits;
+        const std::uint64_t row_key = order[cell_begin_[begin]].first / row_length_;
         std::uint32_t end = begin + 1;
-        while (end < cell_x_.size() && (order[cell_begin_[end]].first >> axis_bits) == row_key) ++end;
+        while (end < cell_x_.size() && order[cell_begin_[end]].first / row_length_ == row_key) ++end;
         std::uint64_t slot = hash_key(row_key, row_shift_);
         while (rows_[slot].key != empty_row) slot = (slot + 1) & row_mask_;
         rows_[slot] = Row{row_key, begin, end};
@@ -131,7 +117,7 @@ NeighborGrid::NeighborGrid(std::span<const Point> points, float cell_size)
 const NeighborGrid::Row* NeighborGrid::find_row(int y, int z) const
 {
     if (y < min_cell_.y() || y > max_cell_.y() || z < min_cell_.z() || z > max_cell_.z()) return nullptr;
-    const std::uint64_t key = (std::uint64_t(z - min_cell_.z()) << axis_bits) | std::uint64_t(y - min_cell_.y());
+    const std::uint64_t key = std::uint64_t(z - min_cell_.z()) * rows_per_slice_ + std::uint64_t(y - min_cell_.y());
     std::uint64_t slot = hash_key(key, row_shift_);
     while (true) {
         const Row& row = rows_[slot];
@@ -328,7 +314,7 @@ void NeighborGrid::knn_search_batch(std::span<const Point> queries, int k, std::
             std::uint64_t key = outside;
             if (c.allFinite() && (c.array() >= min_cell_.cast<float>().array()).all() &&
                 (c.array() <= max_cell_.cast<float>().array()).all())
-                key = cell_key(c.cast<int>() - min_cell_);
+                key = cell_key(c.cast<int>());
             order[i] = {key, std::uint32_t(i)};
         }
     });

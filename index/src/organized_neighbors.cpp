@@ -14,25 +14,6 @@
 
 namespace mfpc {
 
-namespace {
-
-// The pixel offsets of the (2w+1)^2 window, nearest the centre first. Offsets past the image's
-// extent never land on a pixel: a window wider than the image visits the whole image, and needs
-// no more offsets (nor a product that overflows).
-std::vector<std::pair<int, int>> window_offsets(long window, const Camera& camera)
-{
-    const int reach = int(std::min<long>(window, long(std::max(camera.width, camera.height))));
-    std::vector<std::pair<int, int>> offsets;
-    for (int dy = -reach; dy <= reach; ++dy)
-        for (int dx = -reach; dx <= reach; ++dx) offsets.emplace_back(dx, dy);
-    std::stable_sort(offsets.begin(), offsets.end(), [](const auto& a, const auto& b) {
-        return long(a.first) * a.first + long(a.second) * a.second < long(b.first) * b.first + long(b.second) * b.second;
-    });
-    return offsets;
-}
-
-}  // namespace
-
 OrganizedNeighbors::OrganizedNeighbors(const PointCloud& cloud, const Camera& camera, int window)
     : points_(cloud.points), camera_(camera)
 {
@@ -55,11 +36,15 @@ OrganizedNeighbors::OrganizedNeighbors(const PointCloud& cloud, const Camera& ca
 
 OrganizedNeighbors::Stage OrganizedNeighbors::make_stage(int window) const
 {
-    Stage stage{window, window_offsets(window, camera_), {}, 0};
-    for (const auto& [dx, dy] : stage.offsets) {
-        stage.steps.push_back(std::ptrdiff_t(dy) * std::ptrdiff_t(camera_.width) + dx);
-        stage.reach = std::max<long>(stage.reach, std::abs(dx));
-    }
+    // Offsets past the image's extent never land on a pixel: a window wider than the image visits
+    // the whole image, and needs no more offsets (nor a product that overflows).
+    Stage stage{window, {}, {}, std::min<long>(window, long(std::max(camera_.width, camera_.height)))};
+    for (long dy = -stage.reach; dy <= stage.reach; ++dy)
+        for (long dx = -stage.reach; dx <= stage.reach; ++dx) stage.offsets.emplace_back(int(dx), int(dy));
+    std::stable_sort(stage.offsets.begin(), stage.offsets.end(), [](const auto& a, const auto& b) {
+        return long(a.first) * a.first + long(a.second) * a.second < long(b.first) * b.first + long(b.second) * b.second;
+    });
+    for (const auto& [dx, dy] : stage.offsets) stage.steps.push_back(std::ptrdiff_t(dy) * std::ptrdiff_t(camera_.width) + dx);
     return stage;
 }
 
@@ -121,10 +106,7 @@ void OrganizedNeighbors::search_window(const Stage& stage, std::span<const Point
                 const Point& p = points_[std::size_t(i)];
                 // NeighborGrid's arithmetic, so the distances are its distances.
                 const float dx = p.x() - center.x(), dy = p.y() - center.y(), dz = p.z() - center.z();
-                const float d2 = dx * dx + dy * dy + dz * dz;
-                // Most candidates, once k are held, are farther than all of them: one compare.
-                if (best.size() == want && d2 > best.back().first) return;
-                detail::keep_nearest(best, want, {d2, std::uint32_t(i)});
+                detail::keep_nearest(best, want, {dx * dx + dy * dy + dz * dz, std::uint32_t(i)});
             };
             if (u >= stage.reach && v >= stage.reach && u + stage.reach < long(camera_.width) &&
                 v + stage.reach < long(camera_.height)) {

@@ -47,10 +47,17 @@ private:
     // Cells are sorted by (z, y, x), so the cells of one row (fixed y and z) are consecutive and so
     // are their points: a query reads one contiguous range of points per row it touches.
     struct Row {
-        std::uint64_t key;         // (z, y) relative to the grid minimum; empty_row when unused
+        std::uint64_t key;         // row number, cell_key / row_length_; empty_row when unused
         std::uint32_t cell_begin;  // range of cells_x_ / cell_begin_
         std::uint32_t cell_end;
     };
+    // Cells numbered row-major (x fastest) from the grid's minimum cell: sorting by it orders
+    // cells by (z, y, x), so each row of cells is one run.
+    std::uint64_t cell_key(const Eigen::Vector3i& cell) const
+    {
+        const Eigen::Vector3i d = cell - min_cell_;
+        return (std::uint64_t(d.z()) * rows_per_slice_ + std::uint64_t(d.y())) * row_length_ + std::uint64_t(d.x());
+    }
     const Row* find_row(int y, int z) const;
     // Points of row (y, z) whose cells lie in x0..x1: the range [begin, end) of ordered_points_.
     bool row_range(int y, int z, int x0, int x1, std::uint32_t& begin, std::uint32_t& end) const;
@@ -66,6 +73,8 @@ private:
     float inverse_cell_;
     Eigen::Vector3i min_cell_ = Eigen::Vector3i::Zero();
     Eigen::Vector3i max_cell_ = Eigen::Vector3i::Zero();
+    std::uint64_t row_length_ = 1;      // cells along x, min to max
+    std::uint64_t rows_per_slice_ = 1;  // rows along y
     std::vector<Point> ordered_points_;          // points in cell order
     std::vector<std::uint32_t> ordered_indices_;  // their indices into points_
     std::vector<std::int32_t> cell_x_;            // x of each occupied cell, in cell order

@@ -37,7 +37,7 @@ private:
         // the k best fill early and most later candidates fail a single compare.
         std::vector<std::pair<int, int>> offsets;
         std::vector<std::ptrdiff_t> steps;  // the same offsets in the row-major pixel array
-        long reach = 0;                     // the largest offset on either axis
+        long reach = 0;                     // the largest offset on either axis: min(window, image extent)
     };
     Stage make_stage(int window) const;
     // Searches the stage's window around each open query; marks those it settles.

@@ -76,9 +76,15 @@ public:
     // instead of gathering them across the cloud.
     std::span<const Point> ordered_points() const { return ordered_points_; }
     // Per voxel (as voxels()), the sums of its points' r, g and b, when built from a coloured cloud;
-    // empty otherwise. colors() is the view of the colours they were summed from.
+    // empty otherwise.
     std::span<const std::array<std::uint64_t, 3>> voxel_color_sums() const { return voxel_color_sums_; }
-    std::span<const Rgb> colors() const { return colors_; }
+    // Whether those sums are of `cloud`'s colours: the same storage and size (an index built from
+    // another or since-resized colour array must not be trusted).
+    bool sums_colors_of(const PointCloud& cloud) const
+    {
+        return !voxel_color_sums_.empty() && colors_.data() == cloud.colors.data() &&
+               colors_.size() == cloud.colors.size();
+    }
 
     // Indices of the points inside `box` (closed), ascending, appended to `out` after clearing it.
     void points_in_box(const Box& box, std::vector<std::uint32_t>& out) const;
