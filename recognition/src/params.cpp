@@ -137,6 +137,10 @@ const char* to_string(MatchDirection value)
 {
     return value == MatchDirection::scene_to_model ? "scene_to_model" : "model_to_scene";
 }
+const char* to_string(MatchSearch value)
+{
+    return value == MatchSearch::scan ? "scan" : value == MatchSearch::kdtree ? "kdtree" : "randomized";
+}
 const char* to_string(Grouping value) { return value == Grouping::hough ? "hough" : "gc"; }
 
 void check_recognition_params(const RecognitionParams& p, const std::string& source)
@@ -191,7 +195,8 @@ RecognitionParams parse_recognition_params(std::string_view json_text, const std
         r.choice("match_direction", p.match.direction,
                  {{"model_to_scene", MatchDirection::model_to_scene}, {"scene_to_model", MatchDirection::scene_to_model}});
         r.integer("match_k", p.match.k);
-        r.boolean("match_exact", p.match.exact);
+        r.choice("match_search", p.match.search,
+                 {{"scan", MatchSearch::scan}, {"kdtree", MatchSearch::kdtree}, {"randomized", MatchSearch::randomized}});
         r.integer("match_trees", p.match.trees);
         r.integer("match_checks", p.match.checks);
         r.choice("grouping", p.grouping.method, {{"hough", Grouping::hough}, {"gc", Grouping::gc}});
@@ -242,7 +247,7 @@ std::string to_json(const RecognitionParams& p)
         {"match_threshold", clean(p.match.threshold)},
         {"match_direction", to_string(p.match.direction)},
         {"match_k", p.match.k},
-        {"match_exact", p.match.exact},
+        {"match_search", to_string(p.match.search)},
         {"match_trees", p.match.trees},
         {"match_checks", p.match.checks},
         {"grouping", to_string(p.grouping.method)},

@@ -15,8 +15,9 @@ struct Correspondence {
     friend bool operator==(const Correspondence&, const Correspondence&) = default;
 };
 
-// Descriptor correspondences (FLANN kd-tree over the 352-D SHOT descriptors) with squared distance
-// below params.threshold, sorted by (model, scene). Deterministic at any thread count.
+// Descriptor correspondences (nearest 352-D SHOT descriptors, found as params.search says) with
+// squared distance below params.threshold, sorted by (model, scene). Deterministic at any thread
+// count (randomized search excepted, see MatchSearch).
 std::vector<Correspondence> match_descriptors(const Features& model, const Features& scene, const MatchParams& params);
 
 }  // namespace mfpc
