@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <functional>
 #include <limits>
 #include <memory>
 #include <string>
@@ -9,6 +10,7 @@
 #include <Eigen/Eigenvalues>
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
+#include <tbb/parallel_reduce.h>
 
 #include "mfpc/core/error.hpp"
 #include "mfpc/kernels/uniform_sampling.hpp"
@@ -56,22 +58,34 @@ struct Fit {
     float rmse = 0.0f;
 };
 
+// Each model point's nearest scene point within `radius`, in parallel over the points; misses get
+// no_match. Written per point, so what is made of them is the same at any thread count.
+constexpr std::uint32_t no_match = std::numeric_limits<std::uint32_t>::max();
+void nearest_scene_points(const Pose& pose, std::span<const Point> model, const SceneEvidence& scene, float radius,
+                          std::span<std::uint32_t> nearest, std::span<float> squared_distances)
+{
+    tbb::parallel_for(tbb::blocked_range<std::size_t>(0, model.size(), 128), [&](const auto& range) {
+        for (std::size_t i = range.begin(); i < range.end(); ++i)
+            if (!scene.grid->nearest(pose * model[i], radius, nearest[i], squared_distances[i])) nearest[i] = no_match;
+    });
+}
+
 Fit icp(const Pose& start, std::span<const Point> model, const SceneEvidence& scene, const RefineParams& params)
 {
     Fit fit{start, 0.0f};
     std::vector<Point> from, to;
+    std::vector<std::uint32_t> nearest(model.size());
+    std::vector<float> squared_distances(model.size());
     for (int it = 0; it < params.iterations; ++it) {
+        nearest_scene_points(fit.pose, model, scene, params.max_distance, nearest, squared_distances);
         from.clear();
         to.clear();
         double squared_sum = 0.0;
-        for (const Point& m : model) {
-            const Point moved = fit.pose * m;
-            std::uint32_t nearest = 0;
-            float d2 = 0.0f;
-            if (!scene.grid->nearest(moved, params.max_distance, nearest, d2)) continue;
-            from.push_back(moved);
-            to.push_back(scene.points[nearest]);
-            squared_sum += d2;
+        for (std::size_t i = 0; i < model.size(); ++i) {
+            if (nearest[i] == no_match) continue;
+            from.push_back(fit.pose * model[i]);
+            to.push_back(scene.points[nearest[i]]);
+            squared_sum += squared_distances[i];
         }
         if (from.size() < 3) break;
         fit.rmse = float(std::sqrt(squared_sum / double(from.size())));
@@ -80,6 +94,33 @@ Fit icp(const Pose& start, std::span<const Point> model, const SceneEvidence& sc
         if (step.translation().norm() < 1e-6f && rotation_error_deg(step, Pose::Identity()) < 1e-4f) break;
     }
     return fit;
+}
+
+std::vector<Point> placed(const Pose& pose, std::span<const Point> points)
+{
+    std::vector<Point> out(points.size());
+    for (std::size_t i = 0; i < points.size(); ++i) out[i] = pose * points[i];
+    return out;
+}
+
+// Two solid objects cannot share space: a placed model with merge_overlap of its points within
+// merge_distance of another's is the same object posed twice (a near-symmetric carton turned half
+// a turn, or slid along its own face).
+bool overlaps(std::span<const Point> placed_points, const NeighborGrid& other, const VerifyParams& verify)
+{
+    if (placed_points.empty()) return false;
+    const std::size_t close = tbb::parallel_reduce(
+        tbb::blocked_range<std::size_t>(0, placed_points.size(), 128), std::size_t(0),
+        [&](const auto& range, std::size_t count) {
+            for (std::size_t i = range.begin(); i < range.end(); ++i) {
+                std::uint32_t index = 0;
+                float d2 = 0.0f;
+                if (other.nearest(placed_points[i], verify.merge_distance, index, d2)) ++count;
+            }
+            return count;
+        },
+        std::plus<>());
+    return float(close) >= verify.merge_overlap * float(placed_points.size());
 }
 
 }  // namespace
@@ -118,34 +159,47 @@ std::vector<Instance> refine_and_verify(std::vector<Instance> instances, std::sp
         normals.push_back(model_normals[i]);
     }
 
-    tbb::parallel_for(std::size_t(0), instances.size(), [&](std::size_t n) {
+    // Hypotheses in the order given (grouping's: most votes first), each against those accepted
+    // before it: one that starts on an accepted instance's place is the same object again and is
+    // dropped before its ICP (in clutter, most Hough maxima beside a true one are such). The
+    // points within a hypothesis are what runs in parallel.
+    std::vector<std::size_t> accepted;  // instance numbers; with merging, claimed[i] is accepted[i]'s place
+    std::vector<std::vector<Point>> claimed_points;
+    std::vector<std::unique_ptr<NeighborGrid>> claimed;
+    std::vector<std::uint32_t> nearest(points.size());
+    std::vector<float> squared_distances(points.size());
+    for (std::size_t n = 0; n < instances.size(); ++n) {
         Instance& instance = instances[n];
+        if (verify.enabled && verify.merge) {
+            const std::vector<Point> start = placed(instance.transform, points);
+            if (std::any_of(claimed.begin(), claimed.end(),
+                            [&](const auto& grid) { return overlaps(start, *grid, verify); }))
+                continue;
+        }
         // A hypothesis that explains less than three quarters of the coverage asked for, even with
         // the looser ICP distance, will not make it: reject it before paying for ICP (most Hough
         // maxima in clutter are such; true ones start within a centimetre).
         if (verify.enabled) {
+            nearest_scene_points(instance.transform, points, scene, std::max(refine.max_distance, verify.inlier_distance),
+                                 nearest, squared_distances);
             std::size_t near = 0, facing = 0;
-            const float radius = std::max(refine.max_distance, verify.inlier_distance);
             for (std::size_t i = 0; i < points.size(); ++i) {
-                const Point p = instance.transform * points[i];
-                if (!faces_camera(instance.transform, p, normals[i])) continue;
+                if (!faces_camera(instance.transform, instance.transform * points[i], normals[i])) continue;
                 ++facing;
-                std::uint32_t nearest = 0;
-                float d2 = 0.0f;
-                if (scene.grid->nearest(p, radius, nearest, d2)) ++near;
+                if (nearest[i] != no_match) ++near;
             }
-            if (float(near) < 0.75f * verify.min_coverage * float(facing) || facing == 0) {
-                instance.fitness = 0.0f;
-                instance.coverage = 0.0f;
-                return;
-            }
+            if (float(near) < 0.75f * verify.min_coverage * float(facing) || facing == 0) continue;
         }
         if (refine.enabled) {
             const Fit fit = icp(instance.transform, points, scene, refine);
             instance.transform = fit.pose;
             instance.rmse = fit.rmse;
         }
-        if (!verify.enabled) return;
+        if (!verify.enabled) {
+            accepted.push_back(n);
+            continue;
+        }
+        nearest_scene_points(instance.transform, points, scene, verify.inlier_distance, nearest, squared_distances);
         std::size_t facing = 0, visible = 0, inliers = 0, projected = 0, violations = 0;
         Spread facing_spread, inlier_spread;
         for (std::size_t i = 0; i < points.size(); ++i) {
@@ -173,9 +227,7 @@ std::vector<Instance> refine_and_verify(std::vector<Instance> instances, std::sp
             // Fitness, over the points the sensor could have seen: facing it, and not hidden.
             if (hidden) continue;
             ++visible;
-            std::uint32_t nearest = 0;
-            float d2 = 0.0f;
-            if (scene.grid->nearest(p, verify.inlier_distance, nearest, d2)) {
+            if (nearest[i] != no_match) {
                 ++inliers;
                 inlier_spread.add(p);
             }
@@ -187,53 +239,34 @@ std::vector<Instance> refine_and_verify(std::vector<Instance> instances, std::sp
         instance.fitness = visible ? float(inliers) / float(visible) : 0.0f;
         instance.coverage = facing ? float(inliers) / float(facing) : 0.0f;
         instance.free_space_violation = projected ? float(violations) / float(projected) : 0.0f;
-    });
-    if (!verify.enabled) return instances;
-
-    std::vector<Instance> accepted;
-    for (auto& instance : instances)
-        if (instance.fitness >= verify.min_inlier_fraction && instance.coverage >= verify.min_coverage &&
-            instance.free_space_violation <= verify.max_free_space_fraction &&
-            instance.thickness_ratio >= verify.min_thickness_ratio)
-            accepted.push_back(std::move(instance));
-    if (!verify.merge) return accepted;
-    // Duplicates: two solid objects cannot share space, so an instance whose placed model overlaps
-    // a better one's (merge_overlap of its points within merge_distance of the other's) is the same
-    // object posed twice: a near-symmetric carton turned half a turn, or slid along its own face.
-    // The better fit (then the earlier) stays; the original order is kept.
-    std::vector<std::size_t> by_fitness(accepted.size());
-    for (std::size_t i = 0; i < by_fitness.size(); ++i) by_fitness[i] = i;
-    std::stable_sort(by_fitness.begin(), by_fitness.end(),
-                     [&](std::size_t a, std::size_t b) { return accepted[a].fitness > accepted[b].fitness; });
-    std::vector<std::uint8_t> keep(accepted.size(), 0);
-    std::vector<std::vector<Point>> kept_points;
-    std::vector<std::unique_ptr<NeighborGrid>> kept_grids;
-    std::vector<std::uint32_t> indices;
-    std::vector<float> distances;
-    for (std::size_t i : by_fitness) {
-        std::vector<Point> placed(points.size());
-        for (std::size_t p = 0; p < points.size(); ++p) placed[p] = accepted[i].transform * points[p];
-        bool duplicate = false;
-        for (const auto& grid : kept_grids) {
-            std::size_t close = 0;
-            for (const Point& p : placed) {
-                grid->radius_search(p, verify.merge_distance, indices, distances);
-                if (!indices.empty()) ++close;
-            }
-            if (!placed.empty() && float(close) >= verify.merge_overlap * float(placed.size())) {
-                duplicate = true;
-                break;
-            }
+        if (instance.fitness < verify.min_inlier_fraction || instance.coverage < verify.min_coverage ||
+            instance.free_space_violation > verify.max_free_space_fraction ||
+            instance.thickness_ratio < verify.min_thickness_ratio)
+            continue;
+        accepted.push_back(n);
+        if (verify.merge) {
+            claimed_points.push_back(placed(instance.transform, points));
+            claimed.push_back(std::make_unique<NeighborGrid>(claimed_points.back(), std::max(verify.merge_distance, 1e-3f)));
         }
-        if (duplicate) continue;
-        keep[i] = 1;
-        kept_points.push_back(std::move(placed));
-        kept_grids.push_back(std::make_unique<NeighborGrid>(kept_points.back(), std::max(verify.merge_distance, 1e-3f)));
     }
-    std::vector<Instance> merged;
+    std::vector<std::uint8_t> keep(accepted.size(), 1);
+    if (verify.enabled && verify.merge) {
+        // Refined, two accepted instances may still overlap (the later started elsewhere and slid
+        // onto the earlier's object): the better fit (then the earlier) stays.
+        std::vector<std::size_t> by_fitness(accepted.size());
+        for (std::size_t i = 0; i < by_fitness.size(); ++i) by_fitness[i] = i;
+        std::stable_sort(by_fitness.begin(), by_fitness.end(), [&](std::size_t a, std::size_t b) {
+            return instances[accepted[a]].fitness > instances[accepted[b]].fitness;
+        });
+        for (std::size_t i = 0; i < by_fitness.size(); ++i)
+            for (std::size_t j = 0; j < i && keep[by_fitness[i]]; ++j)
+                if (keep[by_fitness[j]] && overlaps(claimed_points[by_fitness[i]], *claimed[by_fitness[j]], verify))
+                    keep[by_fitness[i]] = 0;
+    }
+    std::vector<Instance> verified;
     for (std::size_t i = 0; i < accepted.size(); ++i)
-        if (keep[i]) merged.push_back(std::move(accepted[i]));
-    return merged;
+        if (keep[i]) verified.push_back(std::move(instances[accepted[i]]));
+    return verified;
 }
 
 }  // namespace mfpc
