@@ -31,6 +31,22 @@ inline float squared_distance(const Point& a, const Point& b)
 // Fibonacci hashing: the top bits of the product mix every bit of the key.
 inline std::uint64_t hash_key(std::uint64_t key, int shift) { return (key * 0x9E3779B97F4A7C15ull) >> shift; }
 
+// Stable LSD radix sort of `entries` by bits [low, low + bits) of key(entry), in 11-bit digits.
+template <class Entry, class Key>
+void radix_sort(std::vector<Entry>& entries, int low, int bits, Key&& key)
+{
+    constexpr int digit_bits = 11;
+    constexpr std::uint64_t digit_mask = (1u << digit_bits) - 1;
+    std::vector<Entry> scratch(entries.size());
+    for (int shift = low; shift < low + bits; shift += digit_bits) {
+        std::vector<std::uint32_t> start((1u << digit_bits) + 1, 0);
+        for (const Entry& entry : entries) ++start[((key(entry) >> shift) & digit_mask) + 1];
+        for (std::size_t d = 1; d < start.size(); ++d) start[d] += start[d - 1];
+        for (const Entry& entry : entries) scratch[start[(key(entry) >> shift) & digit_mask]++] = entry;
+        entries.swap(scratch);
+    }
+}
+
 }  // namespace
 
 NeighborGrid::NeighborGrid(std::span<const Point> points, float cell_size)
@@ -65,36 +81,49 @@ NeighborGrid::NeighborGrid(std::span<const Point> points, float cell_size)
     // Points ordered by (cell key, index). The keys are dense: numbered row-major over the
     // occupied extent they take 20-30 bits on a room-sized scene at millimetre cells, so a stable
     // radix sort in 11-bit digits takes 2 or 3 passes, where a comparison sort took 10 times as
-    // long. Stable from index order, it breaks ties by index, whatever the thread count.
+    // long. Stable from index order, it breaks ties by index, whatever the thread count. Key and
+    // index share one 64-bit word when they fit (they do but for huge extents): half the memory
+    // traffic of a pair.
     row_length_ = std::uint64_t(extent.x()) + 1;
     rows_per_slice_ = std::uint64_t(extent.y()) + 1;
     const std::uint64_t cell_count = row_length_ * rows_per_slice_ * (std::uint64_t(extent.z()) + 1);
-    std::vector<std::pair<std::uint64_t, std::uint32_t>> order(points.size()), scratch(points.size());
-    tbb::parallel_for(tbb::blocked_range<std::size_t>(0, points.size(), 4096), [&](const auto& range) {
-        for (std::size_t i = range.begin(); i < range.end(); ++i) order[i] = {cell_key(cells[i]), std::uint32_t(i)};
-    });
-    constexpr int digit_bits = 11;
-    constexpr std::uint64_t digit_mask = (1u << digit_bits) - 1;
     const int key_bits = int(std::bit_width(cell_count - 1));
-    for (int shift = 0; shift < key_bits; shift += digit_bits) {
-        std::vector<std::uint32_t> start((1u << digit_bits) + 1, 0);
-        for (const auto& entry : order) ++start[((entry.first >> shift) & digit_mask) + 1];
-        for (std::size_t d = 1; d < start.size(); ++d) start[d] += start[d - 1];
-        for (const auto& entry : order) scratch[start[(entry.first >> shift) & digit_mask]++] = entry;
-        order.swap(scratch);
+    const int index_bits = int(std::bit_width(points.size() - 1));
+    std::vector<std::uint32_t> order(points.size());
+    if (key_bits + index_bits <= 64) {
+        std::vector<std::uint64_t> packed(points.size());
+        tbb::parallel_for(tbb::blocked_range<std::size_t>(0, points.size(), 4096), [&](const auto& range) {
+            for (std::size_t i = range.begin(); i < range.end(); ++i)
+                packed[i] = cell_key(cells[i]) << index_bits | std::uint64_t(i);
+        });
+        radix_sort(packed, index_bits, key_bits, [](std::uint64_t entry) { return entry; });
+        const std::uint64_t index_mask = (std::uint64_t(1) << index_bits) - 1;
+        for (std::size_t i = 0; i < packed.size(); ++i) order[i] = std::uint32_t(packed[i] & index_mask);
+    } else {
+        std::vector<std::pair<std::uint64_t, std::uint32_t>> pairs(points.size());
+        tbb::parallel_for(tbb::blocked_range<std::size_t>(0, points.size(), 4096), [&](const auto& range) {
+            for (std::size_t i = range.begin(); i < range.end(); ++i) pairs[i] = {cell_key(cells[i]), std::uint32_t(i)};
+        });
+        radix_sort(pairs, 0, key_bits, [](const auto& entry) { return entry.first; });
+        for (std::size_t i = 0; i < pairs.size(); ++i) order[i] = pairs[i].second;
     }
 
+    // Cells and rows from the cell coordinates, where the keys would need a 64-bit division each.
     ordered_points_.resize(points.size());
-    ordered_indices_.resize(points.size());
+    ordered_indices_ = std::move(order);
     std::size_t row_count = 0;
-    for (std::size_t i = 0; i < order.size(); ++i) {
-        ordered_points_[i] = points[order[i].second];
-        ordered_indices_[i] = order[i].second;
-        const std::uint64_t key = order[i].first;
-        if (i == 0 || key != order[i - 1].first) {
-            cell_x_.push_back(std::int32_t(key % row_length_) + min_cell_.x());
+    std::vector<std::uint64_t> row_keys;  // per cell
+    for (std::size_t i = 0; i < ordered_indices_.size(); ++i) {
+        const std::uint32_t index = ordered_indices_[i];
+        ordered_points_[i] = points[index];
+        const Eigen::Vector3i& cell = cells[index];
+        if (i == 0 || cell != cells[ordered_indices_[i - 1]]) {
+            const std::uint64_t row_key =
+                std::uint64_t(cell.z() - min_cell_.z()) * rows_per_slice_ + std::uint64_t(cell.y() - min_cell_.y());
+            if (row_keys.empty() || row_key != row_keys.back()) ++row_count;
+            cell_x_.push_back(cell.x());
             cell_begin_.push_back(std::uint32_t(i));
-            if (i == 0 || key / row_length_ != order[i - 1].first / row_length_) ++row_count;
+            row_keys.push_back(row_key);
         }
     }
     cell_begin_.push_back(std::uint32_t(points.size()));
@@ -104,9 +133,9 @@ NeighborGrid::NeighborGrid(std::span<const Point> points, float cell_size)
     row_mask_ = table_size - 1;
     row_shift_ = 64 - std::countr_zero(table_size);
     for (std::uint32_t begin = 0; begin < cell_x_.size();) {
-        const std::uint64_t row_key = order[cell_begin_[begin]].first / row_length_;
+        const std::uint64_t row_key = row_keys[begin];
         std::uint32_t end = begin + 1;
-        while (end < cell_x_.size() && order[cell_begin_[end]].first / row_length_ == row_key) ++end;
+        while (end < cell_x_.size() && row_keys[end] == row_key) ++end;
         std::uint64_t slot = hash_key(row_key, row_shift_);
         while (rows_[slot].key != empty_row) slot = (slot + 1) & row_mask_;
         rows_[slot] = Row{row_key, begin, end};
