@@ -28,6 +28,10 @@ function(mfpc_module name)
   target_compile_features(mfpc_${name} PUBLIC cxx_std_20)
   target_link_libraries(mfpc_${name} PUBLIC ${ARG_DEPENDS} PRIVATE ${ARG_PRIVATE_DEPENDS}
                         $<BUILD_INTERFACE:mfpc_warnings>)
+  # A library's calls to its own exported functions (the neighbour grid's row lookups from its
+  # queries, say) bind inside it and can be inlined, instead of going through the PLT in case
+  # another library interposed them, which nobody may do to mfpc's internals.
+  target_compile_options(mfpc_${name} PRIVATE $<$<CXX_COMPILER_ID:GNU,Clang>:-fno-semantic-interposition>)
   install(TARGETS mfpc_${name} EXPORT MFPCTargets
           LIBRARY DESTINATION ${CMAKE_INSTALL_LIBDIR}
           ARCHIVE DESTINATION ${CMAKE_INSTALL_LIBDIR}
