@@ -22,6 +22,22 @@ void check_inputs(const Features& model, const Features& scene, const std::vecto
                                         std::to_string(model.size()) + " / scene's " + std::to_string(scene.size()));
 }
 
+// fit_rigid of a three-pair sample in fixed-size matrices: RANSAC fits thousands of them, and the
+// dynamic-size fit spends most of its time allocating.
+Pose fit_sample(const Point (&from)[3], const Point (&to)[3])
+{
+    Eigen::Matrix3d a, b;
+    for (int i = 0; i < 3; ++i) {
+        a.col(i) = from[i].cast<double>();
+        b.col(i) = to[i].cast<double>();
+    }
+    const Eigen::Matrix4d m = Eigen::umeyama(a, b, false);
+    Pose pose = Pose::Identity();
+    pose.linear() = m.topLeftCorner<3, 3>().cast<float>();
+    pose.translation() = m.topRightCorner<3, 1>().cast<float>();
+    return pose;
+}
+
 // RANSAC over a cluster's correspondences (three at a time, a generator seeded by the cluster's
 // rank, so the result does not depend on threads or runs), then a least-squares fit on the largest
 // inlier set. Returns false when fewer than three correspondences agree.
@@ -40,7 +56,6 @@ bool fit_instance(const Features& model, const Features& scene, std::vector<Corr
     std::mt19937 rng(seed);
     std::uniform_int_distribution<std::uint32_t> pick(0, std::uint32_t(cluster.size() - 1));
     std::vector<std::uint32_t> best, current;
-    std::vector<Point> from(3), to(3);
     const int iterations = cluster.size() == 3 ? 1 : params.ransac_iterations;
     for (int it = 0; it < iterations; ++it) {
         std::uint32_t a = 0, b = 1, c = 2;
@@ -50,18 +65,20 @@ bool fit_instance(const Features& model, const Features& scene, std::vector<Corr
             do c = pick(rng); while (c == a || c == b);
         }
         const std::uint32_t sample[3] = {a, b, c};
+        Point from[3], to[3];
         for (int j = 0; j < 3; ++j) {
-            from[std::size_t(j)] = model.keypoints[cluster[sample[j]].model];
-            to[std::size_t(j)] = scene.keypoints[cluster[sample[j]].scene];
+            from[j] = model.keypoints[cluster[sample[j]].model];
+            to[j] = scene.keypoints[cluster[sample[j]].scene];
         }
         // A degenerate (nearly collinear) sample fixes no rotation.
         if ((from[1] - from[0]).cross(from[2] - from[0]).norm() < 1e-6f) continue;
-        inliers_of(fit_rigid(from, to), current);
+        inliers_of(fit_sample(from, to), current);
         if (current.size() > best.size()) best = current;
         if (best.size() == cluster.size()) break;
     }
     if (best.size() < 3) return false;
     // Least squares on the inliers, then once more on the inliers of that pose.
+    std::vector<Point> from, to;
     for (int round = 0; round < 2; ++round) {
         from.clear();
         to.clear();
