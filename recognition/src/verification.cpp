@@ -28,6 +28,10 @@ bool faces_camera(const Pose& pose, const Point& p, const Point& normal)
 // Thinner than this, the side of a model turned to the sensor is flat (metres).
 constexpr float flat_side = 0.002f;
 
+// An accepted instance that explains at least this fraction of its visible points is settled: no
+// other pose of the same object would fit it much better (the shared scenes' cartons: 1.0).
+constexpr float settled_fitness = 0.95f;
+
 // The spread of points off their best plane: the square root of the smallest eigenvalue of their
 // covariance.
 struct Spread {
@@ -58,34 +62,46 @@ struct Fit {
     float rmse = 0.0f;
 };
 
-// Each model point's nearest scene point within `radius`, in parallel over the points; misses get
-// no_match. Written per point, so what is made of them is the same at any thread count.
+// The nearest scene point within `radius` of each model point placed by `pose` that `wanted`
+// marks (all when empty), in parallel over the points; misses and unwanted points get no_match.
+// Written per point, so what is made of them is the same at any thread count.
 constexpr std::uint32_t no_match = std::numeric_limits<std::uint32_t>::max();
-void nearest_scene_points(const Pose& pose, std::span<const Point> model, const SceneEvidence& scene, float radius,
-                          std::span<std::uint32_t> nearest, std::span<float> squared_distances)
+void nearest_scene_points(const Pose& pose, std::span<const Point> model, std::span<const std::uint8_t> wanted,
+                          const SceneEvidence& scene, float radius, std::span<std::uint32_t> nearest,
+                          std::span<float> squared_distances)
 {
     tbb::parallel_for(tbb::blocked_range<std::size_t>(0, model.size(), 128), [&](const auto& range) {
         for (std::size_t i = range.begin(); i < range.end(); ++i)
-            if (!scene.grid->nearest(pose * model[i], radius, nearest[i], squared_distances[i])) nearest[i] = no_match;
+            if ((!wanted.empty() && !wanted[i]) ||
+                !scene.grid->nearest(pose * model[i], radius, nearest[i], squared_distances[i]))
+                nearest[i] = no_match;
     });
 }
 
-Fit icp(const Pose& start, std::span<const Point> model, const SceneEvidence& scene, const RefineParams& params)
+// Lookup buffers, one entry per (thinned) model point, shared by the steps of every hypothesis.
+struct Scratch {
+    std::vector<std::uint32_t> nearest;
+    std::vector<float> squared_distances;
+    std::vector<std::uint8_t> wanted;
+    explicit Scratch(std::size_t points) : nearest(points), squared_distances(points), wanted(points) {}
+};
+
+Fit icp(const Pose& start, std::span<const Point> model, const SceneEvidence& scene, const RefineParams& params,
+        Scratch& scratch)
 {
     Fit fit{start, 0.0f};
     std::vector<Point> from, to;
-    std::vector<std::uint32_t> nearest(model.size());
-    std::vector<float> squared_distances(model.size());
     for (int it = 0; it < params.iterations; ++it) {
-        nearest_scene_points(fit.pose, model, scene, params.max_distance, nearest, squared_distances);
+        nearest_scene_points(fit.pose, model, {}, scene, params.max_distance, scratch.nearest,
+                             scratch.squared_distances);
         from.clear();
         to.clear();
         double squared_sum = 0.0;
         for (std::size_t i = 0; i < model.size(); ++i) {
-            if (nearest[i] == no_match) continue;
+            if (scratch.nearest[i] == no_match) continue;
             from.push_back(fit.pose * model[i]);
-            to.push_back(scene.points[nearest[i]]);
-            squared_sum += squared_distances[i];
+            to.push_back(scene.points[scratch.nearest[i]]);
+            squared_sum += scratch.squared_distances[i];
         }
         if (from.size() < 3) break;
         fit.rmse = float(std::sqrt(squared_sum / double(from.size())));
@@ -160,38 +176,45 @@ std::vector<Instance> refine_and_verify(std::vector<Instance> instances, std::sp
     }
 
     // Hypotheses in the order given (grouping's: most votes first), each against those accepted
-    // before it: one that starts on an accepted instance's place is the same object again and is
-    // dropped before its ICP (in clutter, most Hough maxima beside a true one are such). The
-    // points within a hypothesis are what runs in parallel.
+    // before it. One that starts on the place of a settled instance (one that explains nearly all
+    // of what the sensor could see of it) is that object again, and would lose the merge to it: it
+    // is dropped before its ICP (in clutter, most Hough maxima beside a true one are such). Only
+    // settled instances drop others, so that a poor fit with many votes cannot hide the true
+    // objects around it: those are refined, and beat it in the merge. The points within a
+    // hypothesis are what runs in parallel.
     std::vector<std::size_t> accepted;  // instance numbers; with merging, claimed[i] is accepted[i]'s place
     std::vector<std::vector<Point>> claimed_points;
     std::vector<std::unique_ptr<NeighborGrid>> claimed;
-    std::vector<std::uint32_t> nearest(points.size());
-    std::vector<float> squared_distances(points.size());
+    std::vector<std::uint8_t> settled;  // per claim
+    Scratch scratch(points.size());
     for (std::size_t n = 0; n < instances.size(); ++n) {
         Instance& instance = instances[n];
-        if (verify.enabled && verify.merge) {
+        if (verify.enabled && verify.merge &&
+            std::find(settled.begin(), settled.end(), std::uint8_t(1)) != settled.end()) {
             const std::vector<Point> start = placed(instance.transform, points);
-            if (std::any_of(claimed.begin(), claimed.end(),
-                            [&](const auto& grid) { return overlaps(start, *grid, verify); }))
-                continue;
+            bool same = false;
+            for (std::size_t c = 0; c < claimed.size() && !same; ++c)
+                same = settled[c] && overlaps(start, *claimed[c], verify);
+            if (same) continue;
         }
         // A hypothesis that explains less than three quarters of the coverage asked for, even with
         // the looser ICP distance, will not make it: reject it before paying for ICP (most Hough
         // maxima in clutter are such; true ones start within a centimetre).
         if (verify.enabled) {
-            nearest_scene_points(instance.transform, points, scene, std::max(refine.max_distance, verify.inlier_distance),
-                                 nearest, squared_distances);
-            std::size_t near = 0, facing = 0;
+            std::size_t facing = 0;
             for (std::size_t i = 0; i < points.size(); ++i) {
-                if (!faces_camera(instance.transform, instance.transform * points[i], normals[i])) continue;
-                ++facing;
-                if (nearest[i] != no_match) ++near;
+                scratch.wanted[i] = faces_camera(instance.transform, instance.transform * points[i], normals[i]);
+                facing += scratch.wanted[i];
             }
+            nearest_scene_points(instance.transform, points, scratch.wanted, scene,
+                                 std::max(refine.max_distance, verify.inlier_distance), scratch.nearest,
+                                 scratch.squared_distances);
+            const std::size_t near = std::size_t(
+                std::count_if(scratch.nearest.begin(), scratch.nearest.end(), [](std::uint32_t m) { return m != no_match; }));
             if (float(near) < 0.75f * verify.min_coverage * float(facing) || facing == 0) continue;
         }
         if (refine.enabled) {
-            const Fit fit = icp(instance.transform, points, scene, refine);
+            const Fit fit = icp(instance.transform, points, scene, refine, scratch);
             instance.transform = fit.pose;
             instance.rmse = fit.rmse;
         }
@@ -199,13 +222,14 @@ std::vector<Instance> refine_and_verify(std::vector<Instance> instances, std::sp
             accepted.push_back(n);
             continue;
         }
-        nearest_scene_points(instance.transform, points, scene, verify.inlier_distance, nearest, squared_distances);
+        // Free space, for every model point whichever way its surface faces: a solid object there
+        // would have stopped the sensor's ray, so a surface observed behind it refutes it. A point
+        // that faces the sensor and is not hidden (something observed in front of it: no evidence
+        // for or against it) is visible: only those are looked up for fitness.
         std::size_t facing = 0, visible = 0, inliers = 0, projected = 0, violations = 0;
         Spread facing_spread, inlier_spread;
         for (std::size_t i = 0; i < points.size(); ++i) {
             const Point p = instance.transform * points[i];
-            // Free space, for every model point whichever way its surface faces: a solid object
-            // there would have stopped the sensor's ray, so a surface observed behind it refutes it.
             bool hidden = false;
             if (scene.camera && p.z() > 0.0f) {
                 const Camera& c = *scene.camera;
@@ -216,22 +240,25 @@ std::vector<Instance> refine_and_verify(std::vector<Instance> instances, std::sp
                     if (std::isfinite(observed)) {
                         ++projected;
                         if (observed > p.z() + verify.free_space_margin) ++violations;
-                        // Something in front hides the point: no evidence for or against it.
                         hidden = observed < p.z() - verify.free_space_margin;
                     }
                 }
             }
-            if (!faces_camera(instance.transform, p, normals[i])) continue;
-            ++facing;
-            facing_spread.add(p);
-            // Fitness, over the points the sensor could have seen: facing it, and not hidden.
-            if (hidden) continue;
-            ++visible;
-            if (nearest[i] != no_match) {
-                ++inliers;
-                inlier_spread.add(p);
+            const bool faces = faces_camera(instance.transform, p, normals[i]);
+            if (faces) {
+                ++facing;
+                facing_spread.add(p);
             }
+            scratch.wanted[i] = faces && !hidden;
+            visible += scratch.wanted[i];
         }
+        nearest_scene_points(instance.transform, points, scratch.wanted, scene, verify.inlier_distance,
+                             scratch.nearest, scratch.squared_distances);
+        for (std::size_t i = 0; i < points.size(); ++i)
+            if (scratch.nearest[i] != no_match) {
+                ++inliers;
+                inlier_spread.add(instance.transform * points[i]);
+            }
         // A side of the model that is itself flat (a box seen face on) cannot be told from a face
         // laid on a table by its shape: the test passes it.
         const float facing_thickness = facing_spread.thickness();
@@ -247,6 +274,7 @@ std::vector<Instance> refine_and_verify(std::vector<Instance> instances, std::sp
         if (verify.merge) {
             claimed_points.push_back(placed(instance.transform, points));
             claimed.push_back(std::make_unique<NeighborGrid>(claimed_points.back(), std::max(verify.merge_distance, 1e-3f)));
+            settled.push_back(instance.fitness >= settled_fitness);
         }
     }
     std::vector<std::uint8_t> keep(accepted.size(), 1);

@@ -1,7 +1,10 @@
+#include <optional>
+#include <utility>
 #include <vector>
 
 #include <Eigen/Geometry>
 #include <gtest/gtest.h>
+#include <tbb/global_control.h>
 
 #include "mfpc/core/point_cloud.hpp"
 #include "mfpc/core/pose.hpp"
@@ -56,9 +59,10 @@ Instance hypothesis(const Pose& pose, float votes)
 
 // Two boxes in front of the sensor, and hypotheses as Hough voting gives them, most votes first:
 // each box found twice, a little off (less than half the 4 mm sampling: point-to-point ICP on two
-// copies of one lattice has a minimum at every lattice step), and one pose in empty space. Each box comes out once, refined
-// onto its true pose; the second hypothesis of a box, which starts on the first one's place, is the
-// same object and is dropped; the one in empty space is rejected.
+// copies of one lattice has a minimum at every lattice step), and one pose in empty space. Each
+// box comes out once, refined onto its true pose; the second hypothesis of a box, which starts on
+// the first one's place, is the same object and is dropped; the one in empty space is rejected.
+// The same bits at one thread and two.
 TEST(RefineAndVerify, KeepsEachObjectOnceAndRejectsEmptySpace)
 {
     const Box model = box_model();
@@ -89,6 +93,17 @@ TEST(RefineAndVerify, KeepsEachObjectOnceAndRejectsEmptySpace)
     }
     EXPECT_EQ(found[0].votes, 40.0f);  // the first hypothesis of each box is the one kept
     EXPECT_EQ(found[1].votes, 30.0f);
+
+    {
+        tbb::global_control one(tbb::global_control::max_allowed_parallelism, 1);
+        const std::vector<Instance> serial =
+            refine_and_verify(hypotheses, model.points, model.normals, evidence, RefineParams{}, VerifyParams{});
+        ASSERT_EQ(serial.size(), found.size());
+        for (std::size_t i = 0; i < found.size(); ++i) {
+            EXPECT_TRUE(serial[i].transform.matrix() == found[i].transform.matrix()) << i;
+            EXPECT_EQ(serial[i].fitness, found[i].fitness) << i;
+        }
+    }
 
     // Without merging, every hypothesis of a box is refined and kept.
     VerifyParams no_merge;

@@ -30,13 +30,14 @@ SceneEvidence make_scene_evidence(const PointCloud& scene, const NeighborGrid& g
 // not (how much of the side of the model turned to the sensor the scene explains: for a model
 // sampled all around an object, its back can never be seen, so it does not count); and the
 // thickness ratio (the fitting points' spread off their best plane over the facing side's: a model
-// face flush on a table is no evidence of the object); and the free-space violation: the fraction of all model points projecting onto
-// an observed pixel whose surface lies more than free_space_margin behind them (a solid object there
-// would have stopped the ray, so it cannot be there). Instances failing the limits are dropped.
+// face flush on a table is no evidence of the object); and the free-space violation: the fraction
+// of all model points projecting onto an observed pixel whose surface lies more than
+// free_space_margin behind them (a solid object there would have stopped the ray, so it cannot be
+// there). Instances failing the limits are dropped.
 // Duplicates (placed models overlapping: merge_overlap of one's points within merge_distance of the
 // other's): instances are taken in the order given (grouping's: most votes first), and one that
-// starts on the place of an instance accepted before it is dropped before its ICP; two accepted
-// ones that overlap once refined keep the one with the better fitness.
+// starts on the place of a settled instance accepted before it (fitness at least 0.95) is dropped
+// before its ICP; two accepted ones that overlap once refined keep the one with the better fitness.
 // `model_points`/`model_normals` are the model cloud; instances keep their order otherwise.
 std::vector<Instance> refine_and_verify(std::vector<Instance> instances, std::span<const Point> model_points,
                                         std::span<const Point> model_normals, const SceneEvidence& scene,
