@@ -158,13 +158,14 @@ void scan_nearest(const Features& data, const Features& queries, int k, float th
     };
     const std::vector<float> data_norms = squared_norms(data);
     const std::vector<float> query_norms = squared_norms(queries);
-    // Query rows per task and data rows per block: the block (45 KB) stays in the first-level
-    // cache while every query of the task passes over it (measured: 32 rows beat 24, 48 and 128).
-    constexpr std::size_t task_rows = 48, block_rows = 32;
+    // Query rows per task and data rows per block (multiples of the 3-row tile): the block (42 KB)
+    // stays in cache while every query of the task passes over it (measured: about 32 rows beat 24,
+    // 48 and 128). The simple partitioner keeps tasks at task_rows whatever the thread count.
+    constexpr std::size_t task_rows = 48, block_rows = 30;
     tbb::parallel_for(tbb::blocked_range<std::size_t>(0, queries.size(), task_rows), [&](const auto& range) {
         const std::size_t count = range.end() - range.begin();
         std::vector<float> dots(count * block_rows);
-        std::vector<int> kept(count, 0);  // results so far per query, sorted by (distance, index)
+        std::vector<int> kept(count, 0);  // how many results each query has so far in found/distances
         for (std::size_t b0 = 0; b0 < data.size(); b0 += block_rows) {
             const std::size_t block = std::min(block_rows, data.size() - b0);
             dot_products(queries.descriptors.data() + range.begin() * shot_size, count,
@@ -178,7 +179,8 @@ void scan_nearest(const Features& data, const Features& queries, int k, float th
                 for (std::size_t c = 0; c < block; ++c) {
                     const std::size_t j = b0 + c;
                     const float worst = n < k ? threshold : hit_distances[k - 1];
-                    // The rounding of either sum is far below this margin, relative to the norms.
+                    // |estimate - exact distance| stays below about 3e-5 (|q|^2 + |d|^2) for 352
+                    // terms in float, with or without FMA: the margin is 30 times that.
                     const float estimate = query_norms[q] + data_norms[j] - 2.0f * dots[r * block + c];
                     if (!(estimate < worst + 1e-3f * (query_norms[q] + data_norms[j]))) continue;
                     const float d2 = descriptor_distance(query, data.descriptors.data() + j * shot_size, shot_size, worst);
@@ -195,7 +197,7 @@ void scan_nearest(const Features& data, const Features& queries, int k, float th
                 }
             }
         }
-    });
+    }, tbb::simple_partitioner{});
 }
 
 }  // namespace

@@ -188,6 +188,10 @@ RecognitionParams parse_recognition_params(std::string_view json_text, const std
     RecognitionParams p;
     {
         ObjectReader r(root, "", source);
+        // Files written before the key was renamed get told what to write instead.
+        if (root.contains("match_exact"))
+            throw Error(source + ": match_exact", "renamed match_search: \"scan\" or \"kdtree\" for exact (true), "
+                                                  "\"randomized\" for approximate (false)");
         if (const json* scene = r.object("scene")) read_features(*scene, "scene", source, p.scene);
         if (const json* model = r.object("model")) read_features(*model, "model", source, p.model);
         r.choice("normals_from", p.normals_from, {{"full", NormalsFrom::full}, {"foveated", NormalsFrom::foveated}});

@@ -121,10 +121,9 @@ TEST(Matching, ExactSearchesFindTheBruteForcePairs)
                 EXPECT_EQ(hit->scene, 200u);
                 continue;  // FLANN's kd-tree breaks ties its own way
             }
-            params.search = MatchSearch::kdtree;
-            const auto tree = match_descriptors(model, scene, params);
             if (direction == MatchDirection::model_to_scene && k == 2) continue;  // the tie again
-            EXPECT_EQ(scanned, tree) << "k " << k;  // the same distance function: the same bits
+            params.search = MatchSearch::kdtree;
+            EXPECT_EQ(scanned, match_descriptors(model, scene, params)) << "k " << k;  // same distances, same bits
         }
     }
 }
@@ -156,11 +155,19 @@ TEST(Matching, ScanEqualsKdTreeOnRealDescriptors)
     }
 }
 
-TEST(Matching, EmptySidesAndBadParamsAreHandled)
+TEST(Matching, EmptySidesFewDescriptorsAndBadParamsAreHandled)
 {
     std::mt19937 rng(3);
     const Features some = random_features(5, rng);
     const Features none;
+    // k beyond the descriptors there are: every pair (unit vectors are at most 4 apart, squared).
+    const Features four = random_features(4, rng);
+    MatchParams all;
+    all.k = 10;
+    all.threshold = 10.0f;
+    const auto every = match_descriptors(some, four, all);
+    EXPECT_EQ(every.size(), 20u);
+    expect_same_pairs(every, brute_force(some, four, all), "k beyond the data");
     EXPECT_TRUE(match_descriptors(some, none, MatchParams{}).empty());
     EXPECT_TRUE(match_descriptors(none, some, MatchParams{}).empty());
     MatchParams bad;

@@ -97,6 +97,10 @@ TEST(RecognitionParams, DefaultsRoundTripAndBadValuesAreNamed)
     EXPECT_NE(message(R"({"scene": {"shot_radus": 0.02}})").find("p.json: scene.shot_radus: unknown key"), std::string::npos);
     EXPECT_NE(message(R"({"match_k": 2.5})").find("p.json: match_k: must be an integer"), std::string::npos);
     EXPECT_NE(message(R"({"grouping": "ransac"})").find("must be one of hough|gc"), std::string::npos);
+    EXPECT_NE(message(R"({"match_search": "brute"})").find("p.json: match_search: must be one of scan|kdtree|randomized"),
+              std::string::npos);
+    EXPECT_NE(message(R"({"match_exact": true})").find("p.json: match_exact: renamed match_search"), std::string::npos);
+    EXPECT_EQ(parse_recognition_params(R"({"match_search": "kdtree"})", "p.json").match.search, MatchSearch::kdtree);
     EXPECT_NE(message(R"({"verify": {"min_coverage": 2}})").find("verify.min_coverage"), std::string::npos);
     EXPECT_NE(message("[1, 2]").find("must be a JSON object"), std::string::npos);
     EXPECT_NE(message("{").find("invalid JSON"), std::string::npos);

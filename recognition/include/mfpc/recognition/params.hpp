@@ -26,10 +26,11 @@ enum class MatchDirection {
                      // lets one model keypoint match several instances
 };
 
-// How the nearest descriptors are found. scan and kdtree are exact and find the same neighbours
-// but for ties (the scan keeps the lower index); scan is the faster in 352 dimensions, where a
-// kd-tree visits nearly every leaf. randomized: FLANN's randomized kd-trees, approximate and not reproducible: FLANN 1.9
-// shuffles their input with std::random_device, which no seed reaches.
+// How the nearest descriptors are found. scan and kdtree (FLANN's) are exact and find the same
+// neighbours but for ties (the scan keeps the lower index); scan is the faster in 352 dimensions,
+// where a kd-tree visits nearly every leaf. randomized: FLANN's randomized kd-trees, approximate
+// and not reproducible: FLANN 1.9 shuffles their input with std::random_device, which no seed
+// reaches.
 enum class MatchSearch { scan, kdtree, randomized };
 
 enum class Grouping { hough, gc };
