@@ -94,7 +94,7 @@ NeighborGrid::NeighborGrid(std::span<const Point> points, float cell_size)
         std::vector<std::uint64_t> packed(points.size());
         tbb::parallel_for(tbb::blocked_range<std::size_t>(0, points.size(), 4096), [&](const auto& range) {
             for (std::size_t i = range.begin(); i < range.end(); ++i)
-                packed[i] = cell_key(cells[i]) << index_bits | std::uint64_t(i);
+                packed[i] = (cell_key(cells[i]) << index_bits) | std::uint64_t(i);
         });
         radix_sort(packed, index_bits, key_bits, [](std::uint64_t entry) { return entry; });
         const std::uint64_t index_mask = (std::uint64_t(1) << index_bits) - 1;

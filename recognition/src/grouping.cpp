@@ -22,6 +22,17 @@ void check_inputs(const Features& model, const Features& scene, const std::vecto
                                         std::to_string(model.size()) + " / scene's " + std::to_string(scene.size()));
 }
 
+// The rigid least-squares pose (Umeyama, no scaling) taking the columns of `from` onto `to`.
+template <class Columns>
+Pose umeyama_pose(const Columns& from, const Columns& to)
+{
+    const Eigen::Matrix4d m = Eigen::umeyama(from, to, false);
+    Pose pose = Pose::Identity();
+    pose.linear() = m.topLeftCorner<3, 3>().cast<float>();
+    pose.translation() = m.topRightCorner<3, 1>().cast<float>();
+    return pose;
+}
+
 // fit_rigid of a three-pair sample in fixed-size matrices: RANSAC fits thousands of them, and the
 // dynamic-size fit spends most of its time allocating.
 Pose fit_sample(const Point (&from)[3], const Point (&to)[3])
@@ -31,11 +42,7 @@ Pose fit_sample(const Point (&from)[3], const Point (&to)[3])
         a.col(i) = from[i].cast<double>();
         b.col(i) = to[i].cast<double>();
     }
-    const Eigen::Matrix4d m = Eigen::umeyama(a, b, false);
-    Pose pose = Pose::Identity();
-    pose.linear() = m.topLeftCorner<3, 3>().cast<float>();
-    pose.translation() = m.topRightCorner<3, 1>().cast<float>();
-    return pose;
+    return umeyama_pose(a, b);
 }
 
 // RANSAC over a cluster's correspondences (three at a time, a generator seeded by the cluster's
@@ -106,11 +113,7 @@ Pose fit_rigid(std::span<const Point> from, std::span<const Point> to)
         a.col(Eigen::Index(i)) = from[i].cast<double>();
         b.col(Eigen::Index(i)) = to[i].cast<double>();
     }
-    const Eigen::Matrix4d m = Eigen::umeyama(a, b, false);
-    Pose pose = Pose::Identity();
-    pose.linear() = m.topLeftCorner<3, 3>().cast<float>();
-    pose.translation() = m.topRightCorner<3, 1>().cast<float>();
-    return pose;
+    return umeyama_pose(a, b);
 }
 
 std::vector<Instance> hough_grouping(const Features& model, const Features& scene,
