@@ -506,7 +506,8 @@ void print_summary(const bench::RecordingReporter& r, const Inputs& in)
                 "mfpc: built-in defaults on the foveated scene\n"
                 "stages: PCL normals are of every scene point; ours of the points in some keypoint's support, and\n"
                 "include building the neighbour grids that lrf and descriptors use (PCL builds its kd-trees inside each\n"
-                "stage). Both match stages build their kd-tree. Only PCL's normals and descriptors use the 2nd thread.\n");
+                "stage). PCL's match stage builds its kd-tree; ours scans every pair (match_search \"scan\", the same\n"
+                "correspondences as an exact kd-tree). Of PCL's stages only normals and descriptors use the 2nd thread.\n");
     for (int t : thread_counts) {
         const std::string ts = std::to_string(t);
         std::printf("\n-- %d thread(s) --\n", t);
