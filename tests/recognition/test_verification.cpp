@@ -111,5 +111,35 @@ TEST(RefineAndVerify, KeepsEachObjectOnceAndRejectsEmptySpace)
     EXPECT_EQ(refine_and_verify(hypotheses, model.points, model.normals, evidence, RefineParams{}, no_merge).size(), 4u);
 }
 
+// A poor fit with the most votes must not hide the true pose of its object: a box slid 12 mm along
+// its long side (not refined, so it stays there) still explains most of the box and is accepted,
+// but not settled, so the true pose behind it is still verified, and wins the merge.
+TEST(RefineAndVerify, APoorFitDoesNotHideTheTruePose)
+{
+    const Box model = box_model();
+    const Pose truth = pose_at({0.0f, 0.0f, 0.8f}, 25.0f);
+    PointCloud scene;
+    for (const Point& p : model.points) scene.points.push_back(truth * p);
+    scene.width = std::uint32_t(scene.points.size());
+    const NeighborGrid grid(scene.points, 0.005f);
+    const SceneEvidence evidence = make_scene_evidence(scene, grid, std::nullopt);
+
+    const Pose slid = truth * pose_at({0.0f, 0.012f, 0.0f});
+    const std::vector<Instance> hypotheses = {hypothesis(slid, 50.0f), hypothesis(truth, 10.0f)};
+    RefineParams no_icp;
+    no_icp.enabled = false;
+    const std::vector<Instance> found =
+        refine_and_verify(hypotheses, model.points, model.normals, evidence, no_icp, VerifyParams{});
+    ASSERT_EQ(found.size(), 1u);
+    EXPECT_EQ(found[0].votes, 10.0f);
+    EXPECT_FLOAT_EQ(found[0].fitness, 1.0f);
+
+    // The slid pose alone passes verification, with a fitness below a settled one's.
+    const std::vector<Instance> alone =
+        refine_and_verify({hypotheses[0]}, model.points, model.normals, evidence, no_icp, VerifyParams{});
+    ASSERT_EQ(alone.size(), 1u);
+    EXPECT_LT(alone[0].fitness, 0.99f);
+}
+
 }  // namespace
 }  // namespace mfpc

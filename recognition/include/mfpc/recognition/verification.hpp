@@ -36,7 +36,7 @@ SceneEvidence make_scene_evidence(const PointCloud& scene, const NeighborGrid& g
 // there). Instances failing the limits are dropped.
 // Duplicates (placed models overlapping: merge_overlap of one's points within merge_distance of the
 // other's): instances are taken in the order given (grouping's: most votes first), and one that
-// starts on the place of a settled instance accepted before it (fitness at least 0.95) is dropped
+// starts on the place of a settled instance accepted before it (fitness at least 0.99) is dropped
 // before its ICP; two accepted ones that overlap once refined keep the one with the better fitness.
 // `model_points`/`model_normals` are the model cloud; instances keep their order otherwise.
 std::vector<Instance> refine_and_verify(std::vector<Instance> instances, std::span<const Point> model_points,
