@@ -8,6 +8,8 @@
 //    scene-to-model nearest neighbour, as PCL), and PCL plain / ours mfpc (foveated scene);
 //  - per stage: normals, keypoints, descriptors, lrf, match, group (and ours' foveate, verify);
 //  - the model side (prepared once, outside the timed loops), PCL / ours;
+//  - the match stage alone on ours' plain and mfpc descriptors: FLANN's exact kd-tree / our scan
+//    (match_search; the same correspondences);
 //  - counts (keypoints, correspondences) and the instances each pipeline found, with the
 //    translation of each and its distance to the nearest ground-truth instance.
 // Thread counts: ours under tbb::global_control, PCL's OMP classes (normals, SHOT) with
@@ -43,6 +45,7 @@
 #include "mfpc/core/pcl_adapter.hpp"
 #include "mfpc/core/pose.hpp"
 #include "mfpc/recognition/ground_truth.hpp"
+#include "mfpc/recognition/matching.hpp"
 #include "mfpc/recognition/model.hpp"
 #include "mfpc/recognition/recognize.hpp"
 #include "shared_data.hpp"
@@ -381,6 +384,35 @@ void BM_Ours(benchmark::State& state, Variant variant, int scene_number)
     found_by_run()[run_key(std::string("ours_") + variant_names[int(variant)], scene, threads)] = std::move(found);
 }
 
+// The matching stage alone, scan against FLANN's exact kd-tree (the same correspondences), on the
+// descriptors of ours plain or mfpc (built-in defaults), computed once and untimed.
+const Features& scene_features(const Inputs& in, int scene_number, bool foveated)
+{
+    static std::map<std::pair<int, bool>, Features> computed;
+    const auto key = std::pair{scene_number, foveated};
+    if (const auto it = computed.find(key); it != computed.end()) return it->second;
+    const Scene& scene = in.scenes[std::size_t(scene_number)];
+    SceneFoveation foveation;
+    if (foveated) foveation = SceneFoveation{&scene.config, FoveationMode::mfpc, 0};
+    return computed[key] = recognize(in.model, scene.cloud, RecognitionParams{}, foveation).scene_features;
+}
+
+void BM_Match(benchmark::State& state, MatchSearch search, int scene_number, bool foveated)
+{
+    MFPC_REQUIRE_INPUTS(state, in);
+    const Features& scene = scene_features(*in, scene_number, foveated);
+    tbb::global_control limit(tbb::global_control::max_allowed_parallelism, std::size_t(state.range(0)));
+    MatchParams params = RecognitionParams{}.match;
+    params.search = search;
+    std::size_t found = 0;
+    for (auto _ : state) {
+        const std::vector<Correspondence> correspondences = match_descriptors(in->model.features, scene, params);
+        found = correspondences.size();
+        benchmark::DoNotOptimize(correspondences.data());
+    }
+    state.counters["correspondences"] = double(found);
+}
+
 void BM_ModelPcl(benchmark::State& state)
 {
     MFPC_REQUIRE_INPUTS(state, in);
@@ -421,6 +453,12 @@ void register_all()
                 const std::string name = "Scene/ours_" + std::string(variant_names[int(v)]) + "/" + scene + "/threads";
                 configure(benchmark::RegisterBenchmark(name.c_str(), BM_Ours, v, s)->Arg(t), 1);
             }
+            for (const bool foveated : {false, true})
+                for (const MatchSearch search : {MatchSearch::kdtree, MatchSearch::scan}) {
+                    const std::string name = "Match/" + std::string(to_string(search)) + "/" + scene + "/" +
+                                             (foveated ? "mfpc" : "plain") + "/threads";
+                    configure(benchmark::RegisterBenchmark(name.c_str(), BM_Match, search, s, foveated)->Arg(t), 3);
+                }
         }
     }
 }
@@ -530,6 +568,11 @@ void print_summary(const bench::RecordingReporter& r, const Inputs& in)
             print_stage_row(r, "match", pcl, "match", ours, "match");
             print_stage_row(r, "group", pcl, "group", ours, "group");
             print_stage_row(r, "verify", pcl, nullptr, ours, "verify");
+            for (const char* variant : {"plain", "mfpc"}) {
+                const std::string tail = std::string("/") + scene_names[s] + "/" + variant + "/threads/" + ts;
+                r.print_ratio(std::string("  match alone, ours ") + variant + ": FLANN exact kd-tree / scan",
+                              "Match/kdtree" + tail, "Match/scan" + tail);
+            }
         }
     }
 
