@@ -14,6 +14,7 @@
 #include <tbb/parallel_reduce.h>
 
 #include "mfpc/core/error.hpp"
+#include "voxel_slots.hpp"
 
 namespace mfpc {
 
@@ -427,56 +428,6 @@ void keep_point(const PointCloud& cloud, std::uint32_t point, RegionOutput& out)
     out.sources.push_back(cloud.source_position(point));
 }
 
-// Finds the slot of a voxel (i, j, k), relative to the region's lowest voxel, creating it when new.
-// A dense array over the region's voxel range when that range is small next to the member count,
-// else an open-addressing hash of the packed key; both give the same slots.
-class VoxelSlots {
-public:
-    static constexpr std::uint32_t none = std::numeric_limits<std::uint32_t>::max();
-
-    VoxelSlots(const Eigen::Matrix<std::int64_t, 3, 1>& extent, std::size_t members) : extent_(extent)
-    {
-        // Whichever table is smaller to clear: 4 bytes a dense cell, 12 bytes a hash entry (two
-        // per member).
-        const double cells = double(extent[0]) * double(extent[1]) * double(extent[2]);
-        if (4.0 * cells <= 12.0 * double(std::bit_ceil(members * 2)) + 16384.0) {
-            dense_.assign(std::size_t(cells), none);
-        } else {
-            capacity_ = std::bit_ceil(members * 2);
-            shift_ = 64 - std::countr_zero(capacity_);
-            keys_.assign(capacity_, empty_key);
-            slots_.resize(capacity_);
-        }
-    }
-
-    // The slot of voxel (i, j, k); `next` is the slot a new voxel gets. Returns {slot, is_new}.
-    inline std::pair<std::uint32_t, bool> find(std::int64_t i, std::int64_t j, std::int64_t k, std::uint32_t next)
-    {
-        if (!dense_.empty()) {
-            std::uint32_t& slot = dense_[std::size_t((i * extent_[1] + j) * extent_[2] + k)];
-            if (slot != none) return {slot, false};
-            slot = next;
-            return {next, true};
-        }
-        const std::uint64_t key = (std::uint64_t(i) << 42) | (std::uint64_t(j) << 21) | std::uint64_t(k);
-        std::size_t h = std::size_t((key * 0x9E3779B97F4A7C15ull) >> shift_);
-        while (keys_[h] != key && keys_[h] != empty_key) h = (h + 1) & (capacity_ - 1);
-        if (keys_[h] == key) return {slots_[h], false};
-        keys_[h] = key;
-        slots_[h] = next;
-        return {next, true};
-    }
-
-private:
-    static constexpr std::uint64_t empty_key = std::numeric_limits<std::uint64_t>::max();
-    Eigen::Matrix<std::int64_t, 3, 1> extent_;
-    std::vector<std::uint32_t> dense_;
-    std::size_t capacity_ = 0;
-    int shift_ = 0;
-    std::vector<std::uint64_t> keys_;
-    std::vector<std::uint32_t> slots_;
-};
-
 constexpr std::int64_t max_voxels_per_axis = std::int64_t(1) << 21;
 
 // The voxel coordinate of x: floor(x * (1 / d)) in double, a multiplication by the inverse voxel
@@ -545,7 +496,7 @@ RegionOutput downsample_region(const PointCloud& cloud, const RegionMembers& reg
             throw Error(where(), "region spans more than 2^21 voxels of size " + std::to_string(density) + " on one axis");
         }
     }
-    VoxelSlots slots(extent, members.size());
+    detail::VoxelSlots slots(extent, members.size());
 
     // The voxel of a point, relative to the box's lowest voxel; a member outside the box (regions
     // not made by foveation_regions) is an error, not an out-of-range write.

@@ -3,7 +3,6 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
-#include <limits>
 #include <string>
 #include <utility>
 
@@ -11,12 +10,12 @@
 #include <tbb/parallel_for.h>
 
 #include "mfpc/core/error.hpp"
+#include "voxel_slots.hpp"
 
 namespace mfpc {
 namespace {
 
 constexpr int axis_bits = 21;
-constexpr std::uint64_t empty_cube = std::numeric_limits<std::uint64_t>::max();
 
 void check_radius(float radius, const char* what)
 {
@@ -59,44 +58,28 @@ void sample_group(std::span<const Point> points, std::span<const std::uint32_t> 
         throw Error("uniform_sampling", "the cloud spans more than 2^21 cubes of " + std::to_string(radius) +
                                             " m on one axis; use a larger radius");
     // One pass in ascending index order (the order PCL visits a cube's points in), keeping per cube
-    // the point nearest its centre, the first of equals: a hash table of the cubes, not a sort of
+    // the point nearest its centre, the first of equals: the cubes numbered as met, not a sort of
     // the points.
     struct Cube {
-        std::uint64_t key = empty_cube;
         std::uint32_t best = 0;
         float distance = 0.0f;
     };
-    std::vector<Cube> table(1024);
-    std::size_t cube_count = 0;
-    auto slot_of = [&](std::uint64_t key) {
-        std::size_t slot = std::size_t((key * 0x9E3779B97F4A7C15ull) >> 32) & (table.size() - 1);
-        while (table[slot].key != key && table[slot].key != empty_cube) slot = (slot + 1) & (table.size() - 1);
-        return slot;
-    };
+    std::vector<Cube> cubes;
+    detail::VoxelSlots slots((hi - lo).cast<std::int64_t>().array() + 1, members.size());
     for (std::size_t i = 0; i < members.size(); ++i) {
         const Eigen::Vector3i d = cells[i] - lo;
-        const std::uint64_t key =
-            (std::uint64_t(d.z()) << (2 * axis_bits)) | (std::uint64_t(d.y()) << axis_bits) | std::uint64_t(d.x());
         // PCL: (ijk + 0.5) * radius in float.
         const Eigen::Vector3f center = (cells[i].cast<float>().array() + 0.5f) * radius;
         const std::uint32_t point = members[i];
         const float distance = pcl_distance(points[point], center);
-        Cube& cube = table[slot_of(key)];
-        if (cube.key == empty_cube) {
-            cube = Cube{key, point, distance};
-            if (2 * ++cube_count > table.size()) {  // keep the load at most a half
-                std::vector<Cube> old(table.size() * 2);
-                old.swap(table);
-                for (const Cube& c : old)
-                    if (c.key != empty_cube) table[slot_of(c.key)] = c;
-            }
-        } else if (distance < cube.distance) {
-            cube.best = point;
-            cube.distance = distance;
+        const auto [slot, is_new] = slots.find(d.x(), d.y(), d.z(), std::uint32_t(cubes.size()));
+        if (is_new) {
+            cubes.push_back(Cube{point, distance});
+        } else if (distance < cubes[slot].distance) {
+            cubes[slot] = Cube{point, distance};
         }
     }
-    for (const Cube& cube : table)
-        if (cube.key != empty_cube) kept.push_back(cube.best);
+    for (const Cube& cube : cubes) kept.push_back(cube.best);
 }
 
 }  // namespace
