@@ -228,10 +228,11 @@ std::vector<Instance> refine_and_verify(std::vector<Instance> instances, std::sp
         // would have stopped the sensor's ray, so a surface observed behind it refutes it. A point
         // that faces the sensor and is not hidden (something observed in front of it: no evidence
         // for or against it) is visible: only those are looked up for fitness.
+        std::vector<Point> at = placed(instance.transform, points);
         std::size_t facing = 0, visible = 0, inliers = 0, projected = 0, violations = 0;
         Spread facing_spread, inlier_spread;
         for (std::size_t i = 0; i < points.size(); ++i) {
-            const Point p = instance.transform * points[i];
+            const Point& p = at[i];
             bool hidden = false;
             if (scene.camera && p.z() > 0.0f) {
                 const Camera& c = *scene.camera;
@@ -259,7 +260,7 @@ std::vector<Instance> refine_and_verify(std::vector<Instance> instances, std::sp
         for (std::size_t i = 0; i < points.size(); ++i)
             if (scratch.nearest[i] != no_match) {
                 ++inliers;
-                inlier_spread.add(instance.transform * points[i]);
+                inlier_spread.add(at[i]);
             }
         // A side of the model that is itself flat (a box seen face on) cannot be told from a face
         // laid on a table by its shape: the test passes it.
@@ -274,7 +275,7 @@ std::vector<Instance> refine_and_verify(std::vector<Instance> instances, std::sp
             continue;
         accepted.push_back(n);
         if (verify.merge) {
-            claimed_points.push_back(placed(instance.transform, points));
+            claimed_points.push_back(std::move(at));
             claimed.push_back(std::make_unique<NeighborGrid>(claimed_points.back(), std::max(verify.merge_distance, 1e-3f)));
             settled.push_back(instance.fitness >= settled_fitness);
         }
