@@ -60,8 +60,13 @@ public:
         }
     }
 
-    // The level range of points within `bounds` (tight: the extreme coordinates are points').
-    LevelRange range(int structure, const Box& bounds) const
+    // The level range of points within `bounds` (tight: the extreme coordinates are points'), given
+    // `known`, the range of some bounds enclosing them (all levels to start with). Only the boxes
+    // in (known.lowest, known.highest] can cut them: those up to known.lowest hold the enclosing
+    // bounds, those above known.highest miss them. On each axis the comparisons that hold form a
+    // prefix of the boxes (the faces are nested), so each count starts at known.lowest + 1 and
+    // stops at known.highest + 1, which no count of these bounds exceeds.
+    LevelRange range(int structure, const Box& bounds, LevelRange known) const
     {
         const AxisLanes* lower = lower_faces(structure);
         const AxisLanes* upper = upper_faces(structure);
@@ -70,9 +75,11 @@ public:
         // Bounds beside the outer box, the common case with many structures: no level to count.
         const AxisCounts beside = (high < lower[0]) | (low > upper[0]);
         if (beside[0] | beside[1] | beside[2]) return {-1, -1};
+        const int first = known.lowest + 1;
+        AxisCounts lower_in = AxisCounts{} + first;
+        AxisCounts upper_in = lower_in, lower_reach = lower_in, upper_reach = lower_in;
         // Both counts in one pass over the faces (two passes cost labelling 4% more instructions).
-        AxisCounts lower_in{}, upper_in{}, lower_reach{}, upper_reach{};
-        for (int k = 0; k < boxes_; ++k) {
+        for (int k = first; k <= known.highest; ++k) {
             lower_in -= lower[k] <= low;
             upper_in -= upper[k] >= high;
             lower_reach -= lower[k] <= high;
@@ -84,14 +91,16 @@ public:
         return {std::int8_t(contained - 1), std::int8_t(reached - 1)};
     }
 
-    // The level of p (-1: outside the structure).
-    int level(int structure, const Point& p) const
+    // The level of p (-1: outside the structure), given `known`, the range of bounds holding p.
+    int level(int structure, const Point& p, LevelRange known) const
     {
         const AxisLanes* lower = lower_faces(structure);
         const AxisLanes* upper = upper_faces(structure);
         const AxisLanes x = axis_lanes(p);
-        AxisCounts lower_in{}, upper_in{};
-        for (int k = 0; k < boxes_; ++k) {
+        const int first = known.lowest + 1;
+        AxisCounts lower_in = AxisCounts{} + first;
+        AxisCounts upper_in = lower_in;
+        for (int k = first; k <= known.highest; ++k) {
             lower_in -= lower[k] <= x;
             upper_in -= upper[k] >= x;
         }
@@ -204,7 +213,7 @@ std::vector<Emitted> label_runs(const PointIndex& index, const RegionTable& tabl
         inner.clear();
         bool any_mixed = false;
         for (const Reach& r : outer) {
-            const LevelRange levels = r.levels.whole() ? r.levels : faces.range(r.structure, bounds);
+            const LevelRange levels = r.levels.whole() ? r.levels : faces.range(r.structure, bounds, r.levels);
             if (levels.highest < 0) continue;
             inner.push_back({r.structure, levels});
             any_mixed |= !levels.whole();
@@ -244,7 +253,7 @@ std::vector<Emitted> label_runs(const PointIndex& index, const RegionTable& tabl
             std::uint16_t best = no_region;
             std::size_t covering = 0;
             for (const Reach& r : reach) {
-                const int level = r.levels.whole() ? r.levels.lowest : faces.level(r.structure, ordered_points[k]);
+                const int level = r.levels.whole() ? r.levels.lowest : faces.level(r.structure, ordered_points[k], r.levels);
                 if (level < 0) continue;
                 ++covering;
                 best = std::min(best, table.rank[table.region(r.structure, level)]);
