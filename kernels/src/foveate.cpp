@@ -550,6 +550,17 @@ RegionOutput downsample_region(const PointCloud& cloud, const RegionMembers& reg
         std::array<std::uint64_t, 3> rgb{};      // integer sums: exact in any order
     };
     std::vector<Sum> voxels;
+    // About one voxel per member, or per whole index voxel when they come as runs (a few split),
+    // and at most one per downsampling voxel in the box: growing the table instead cost a tenth
+    // of the region's time. Only a hint: the table still grows if index voxels split.
+    std::size_t expected = members.size();
+    if (!region.runs.empty()) {
+        expected = 0;
+        for (const RegionRun& run : region.runs) {
+            expected += run.whole_voxels() ? run.voxel_end - run.voxel_begin : run.end - run.begin;
+        }
+    }
+    voxels.reserve(std::size_t(std::min(double(expected), double(extent[0]) * double(extent[1]) * double(extent[2]))));
     const bool colors = cloud.has_colors();
     const bool normals = cloud.has_normals();
     std::vector<std::uint32_t> slot_of;  // per member, in member order, for the normal sums
