@@ -64,29 +64,34 @@ struct Fit {
     float rmse = 0.0f;
 };
 
-// The nearest scene point within `radius` of each model point placed by `pose` that `wanted`
-// marks (all when empty), in parallel over the points; misses and unwanted points get no_match.
-// Written per point, so what is made of them is the same at any thread count.
-constexpr std::uint32_t no_match = std::numeric_limits<std::uint32_t>::max();
-void nearest_scene_points(const Pose& pose, std::span<const Point> model, std::span<const std::uint8_t> wanted,
-                          const SceneEvidence& scene, float radius, std::span<std::uint32_t> nearest,
-                          std::span<float> squared_distances)
-{
-    tbb::parallel_for(tbb::blocked_range<std::size_t>(0, model.size(), 128), [&](const auto& range) {
-        for (std::size_t i = range.begin(); i < range.end(); ++i)
-            if ((!wanted.empty() && !wanted[i]) ||
-                !scene.grid->nearest(pose * model[i], radius, nearest[i], squared_distances[i]))
-                nearest[i] = no_match;
-    });
-}
-
 // Lookup buffers, one entry per (thinned) model point, shared by the steps of every hypothesis.
 struct Scratch {
+    std::vector<Point> placed;  // the model points where the pose being tested puts them
     std::vector<std::uint32_t> nearest;
     std::vector<float> squared_distances;
     std::vector<std::uint8_t> wanted;
-    explicit Scratch(std::size_t points) : nearest(points), squared_distances(points), wanted(points) {}
+    explicit Scratch(std::size_t points) : placed(points), nearest(points), squared_distances(points), wanted(points) {}
 };
+
+void place(const Pose& pose, std::span<const Point> model, std::span<Point> placed)
+{
+    for (std::size_t i = 0; i < model.size(); ++i) placed[i] = pose * model[i];
+}
+
+// The nearest scene point within `radius` of each of scratch.placed that `wanted` marks (all when
+// empty), in parallel over the points; misses and unwanted points get no_match. Written per point,
+// so what is made of them is the same at any thread count.
+constexpr std::uint32_t no_match = std::numeric_limits<std::uint32_t>::max();
+void nearest_scene_points(std::span<const std::uint8_t> wanted, const SceneEvidence& scene, float radius,
+                          Scratch& scratch)
+{
+    tbb::parallel_for(tbb::blocked_range<std::size_t>(0, scratch.placed.size(), 128), [&](const auto& range) {
+        for (std::size_t i = range.begin(); i < range.end(); ++i)
+            if ((!wanted.empty() && !wanted[i]) ||
+                !scene.grid->nearest(scratch.placed[i], radius, scratch.nearest[i], scratch.squared_distances[i]))
+                scratch.nearest[i] = no_match;
+    });
+}
 
 Fit icp(const Pose& start, std::span<const Point> model, const SceneEvidence& scene, const RefineParams& params,
         Scratch& scratch)
@@ -94,14 +99,14 @@ Fit icp(const Pose& start, std::span<const Point> model, const SceneEvidence& sc
     Fit fit{start, 0.0f};
     std::vector<Point> from, to;
     for (int it = 0; it < params.iterations; ++it) {
-        nearest_scene_points(fit.pose, model, {}, scene, params.max_distance, scratch.nearest,
-                             scratch.squared_distances);
+        place(fit.pose, model, scratch.placed);
+        nearest_scene_points({}, scene, params.max_distance, scratch);
         from.clear();
         to.clear();
         double squared_sum = 0.0;
         for (std::size_t i = 0; i < model.size(); ++i) {
             if (scratch.nearest[i] == no_match) continue;
-            from.push_back(fit.pose * model[i]);
+            from.push_back(scratch.placed[i]);
             to.push_back(scene.points[scratch.nearest[i]]);
             squared_sum += scratch.squared_distances[i];
         }
@@ -112,13 +117,6 @@ Fit icp(const Pose& start, std::span<const Point> model, const SceneEvidence& sc
         if (step.translation().norm() < 1e-6f && rotation_error_deg(step, Pose::Identity()) < 1e-4f) break;
     }
     return fit;
-}
-
-std::vector<Point> placed(const Pose& pose, std::span<const Point> points)
-{
-    std::vector<Point> out(points.size());
-    for (std::size_t i = 0; i < points.size(); ++i) out[i] = pose * points[i];
-    return out;
 }
 
 // Two solid objects cannot share space: a placed model with merge_overlap of its points within
@@ -188,15 +186,15 @@ std::vector<Instance> refine_and_verify(std::vector<Instance> instances, std::sp
     std::vector<std::vector<Point>> claimed_points;
     std::vector<std::unique_ptr<NeighborGrid>> claimed;
     std::vector<std::uint8_t> settled;  // per claim
+    bool any_settled = false;
     Scratch scratch(points.size());
     for (std::size_t n = 0; n < instances.size(); ++n) {
         Instance& instance = instances[n];
-        if (verify.enabled && verify.merge &&
-            std::find(settled.begin(), settled.end(), std::uint8_t(1)) != settled.end()) {
-            const std::vector<Point> start = placed(instance.transform, points);
+        if (verify.enabled) place(instance.transform, points, scratch.placed);  // the start, for both checks
+        if (verify.enabled && verify.merge && any_settled) {
             bool same = false;
             for (std::size_t c = 0; c < claimed.size() && !same; ++c)
-                same = settled[c] && overlaps(start, *claimed[c], verify);
+                same = settled[c] && overlaps(scratch.placed, *claimed[c], verify);
             if (same) continue;
         }
         // A hypothesis that explains less than three quarters of the coverage asked for, even with
@@ -205,12 +203,10 @@ std::vector<Instance> refine_and_verify(std::vector<Instance> instances, std::sp
         if (verify.enabled) {
             std::size_t facing = 0;
             for (std::size_t i = 0; i < points.size(); ++i) {
-                scratch.wanted[i] = faces_camera(instance.transform, instance.transform * points[i], normals[i]);
+                scratch.wanted[i] = faces_camera(instance.transform, scratch.placed[i], normals[i]);
                 facing += scratch.wanted[i];
             }
-            nearest_scene_points(instance.transform, points, scratch.wanted, scene,
-                                 std::max(refine.max_distance, verify.inlier_distance), scratch.nearest,
-                                 scratch.squared_distances);
+            nearest_scene_points(scratch.wanted, scene, std::max(refine.max_distance, verify.inlier_distance), scratch);
             const std::size_t near = std::size_t(
                 std::count_if(scratch.nearest.begin(), scratch.nearest.end(), [](std::uint32_t m) { return m != no_match; }));
             if (float(near) < 0.75f * verify.min_coverage * float(facing) || facing == 0) continue;
@@ -228,7 +224,8 @@ std::vector<Instance> refine_and_verify(std::vector<Instance> instances, std::sp
         // would have stopped the sensor's ray, so a surface observed behind it refutes it. A point
         // that faces the sensor and is not hidden (something observed in front of it: no evidence
         // for or against it) is visible: only those are looked up for fitness.
-        std::vector<Point> at = placed(instance.transform, points);
+        place(instance.transform, points, scratch.placed);
+        const std::vector<Point>& at = scratch.placed;
         std::size_t facing = 0, visible = 0, inliers = 0, projected = 0, violations = 0;
         Spread facing_spread, inlier_spread;
         for (std::size_t i = 0; i < points.size(); ++i) {
@@ -255,8 +252,7 @@ std::vector<Instance> refine_and_verify(std::vector<Instance> instances, std::sp
             scratch.wanted[i] = faces && !hidden;
             visible += scratch.wanted[i];
         }
-        nearest_scene_points(instance.transform, points, scratch.wanted, scene, verify.inlier_distance,
-                             scratch.nearest, scratch.squared_distances);
+        nearest_scene_points(scratch.wanted, scene, verify.inlier_distance, scratch);
         for (std::size_t i = 0; i < points.size(); ++i)
             if (scratch.nearest[i] != no_match) {
                 ++inliers;
@@ -275,9 +271,10 @@ std::vector<Instance> refine_and_verify(std::vector<Instance> instances, std::sp
             continue;
         accepted.push_back(n);
         if (verify.merge) {
-            claimed_points.push_back(std::move(at));
+            claimed_points.push_back(at);
             claimed.push_back(std::make_unique<NeighborGrid>(claimed_points.back(), std::max(verify.merge_distance, 1e-3f)));
             settled.push_back(instance.fitness >= settled_fitness);
+            any_settled |= bool(settled.back());
         }
     }
     std::vector<std::uint8_t> keep(accepted.size(), 1);
