@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <bit>
 #include <cmath>
+#include <cstring>
 #include <limits>
 #include <string>
 #include <utility>
@@ -223,6 +224,78 @@ void NeighborGrid::radius_search(const Point& center, float radius, std::vector<
                     squared_distances.push_back(d2);
                 }
             }
+        }
+    }
+}
+
+Neighborhoods NeighborGrid::radius_neighborhoods(std::span<const Point> centers, float radius) const
+{
+    if (!(radius > 0.0f) || !std::isfinite(radius))
+        throw Error("neighbour grid", "neighbourhood radius must be a positive number, got " + std::to_string(radius));
+    // Fixed chunks of centres, each searched into its own lists, then laid end to end in chunk
+    // order: the same packing at any thread count.
+    constexpr std::size_t chunk = 64;
+    struct Part {
+        std::vector<std::uint32_t> indices;
+        std::vector<float> squared_distances;
+    };
+    std::vector<Part> parts((centers.size() + chunk - 1) / chunk);
+    Neighborhoods out;
+    out.surface = points_;
+    out.centers.assign(centers.begin(), centers.end());
+    out.radius = radius;
+    out.offsets.assign(centers.size() + 1, 0);
+    tbb::parallel_for(std::size_t(0), parts.size(), [&](std::size_t c) {
+        std::vector<std::uint32_t> indices;
+        std::vector<float> squared_distances;
+        Part& part = parts[c];
+        for (std::size_t i = c * chunk; i < std::min(centers.size(), (c + 1) * chunk); ++i) {
+            radius_search(centers[i], radius, indices, squared_distances);
+            part.indices.insert(part.indices.end(), indices.begin(), indices.end());
+            part.squared_distances.insert(part.squared_distances.end(), squared_distances.begin(),
+                                          squared_distances.end());
+            out.offsets[i + 1] = indices.size();  // a count until the prefix sum below
+        }
+    });
+    for (std::size_t i = 0; i < centers.size(); ++i) out.offsets[i + 1] += out.offsets[i];
+    out.indices.resize(out.offsets.back());
+    out.squared_distances.resize(out.offsets.back());
+    tbb::parallel_for(std::size_t(0), parts.size(), [&](std::size_t c) {
+        const std::size_t at = out.offsets[c * chunk];
+        std::copy(parts[c].indices.begin(), parts[c].indices.end(), out.indices.begin() + std::ptrdiff_t(at));
+        std::copy(parts[c].squared_distances.begin(), parts[c].squared_distances.end(),
+                  out.squared_distances.begin() + std::ptrdiff_t(at));
+    });
+    return out;
+}
+
+bool Neighborhoods::is_of(std::span<const Point> points, std::span<const Point> at) const
+{
+    return surface.data() == points.data() && surface.size() == points.size() && centers.size() == at.size() &&
+           std::memcmp(centers.data(), at.data(), at.size() * sizeof(Point)) == 0;
+}
+
+void Neighborhoods::within(std::size_t center, float r, std::vector<std::uint32_t>& indices_out,
+                           std::vector<float>& squared_out) const
+{
+    if (!(r <= radius))
+        throw Error("neighbour grid", "neighbourhoods of radius " + std::to_string(radius) + " cannot give radius " +
+                                          std::to_string(r));
+    const auto found = indices_of(center);
+    const auto squared = squared_distances_of(center);
+    if (r == radius) {
+        indices_out.assign(found.begin(), found.end());
+        squared_out.assign(squared.begin(), squared.end());
+        return;
+    }
+    // The bound radius_search uses; the subsequence keeps its (cell, index) order.
+    const float r2 = r * r;
+    indices_out.clear();
+    squared_out.clear();
+    for (std::size_t i = 0; i < found.size(); ++i) {
+        if (squared[i] < r2) {
+            indices_out.push_back(found[i]);
+            squared_out.push_back(squared[i]);
         }
     }
 }

@@ -107,15 +107,25 @@ inline void set_frame(LocalReferenceFrame& frame, const Eigen::Vector3f& x, cons
 }
 
 // The frame at one keypoint. Returns nothing: an undefined frame is written as NaN.
+// `support`: when given, the neighbourhoods of the keypoints (this one is `at`) to take the
+// supports from instead of searching the grid.
 void board_frame(const Point& keypoint, const NeighborGrid& surface, std::span<const Point> normals,
-                 const BoardParams& params, Scratch& scratch, LocalReferenceFrame& frame)
+                 const BoardParams& params, const Neighborhoods* support, std::size_t at, Scratch& scratch,
+                 LocalReferenceFrame& frame)
 {
     // A NaN keypoint has no neighbourhood (and PCL asserts on it).
     if (!keypoint.allFinite()) return set_undefined(frame);
     const auto points = surface.points();
+    auto neighbours = [&](float radius, std::vector<std::uint32_t>& indices, std::vector<float>& squared_distances) {
+        if (support) {
+            support->within(at, radius, indices, squared_distances);
+        } else {
+            surface.radius_search(keypoint, radius, indices, squared_distances);
+        }
+    };
 
     // z axis: the normal of the least-squares plane through the neighbours.
-    surface.radius_search(keypoint, params.radius, scratch.indices, scratch.squared_distances);
+    neighbours(params.radius, scratch.indices, scratch.squared_distances);
     if (scratch.indices.size() < 6) return set_undefined(frame);
     // PCL takes the last right singular vector of the centred float points (JacobiSVD). That is
     // the smallest eigenvector of their scatter matrix, which we form in double with a two-pass
@@ -149,7 +159,7 @@ void board_frame(const Point& keypoint, const NeighborGrid& surface, std::span<c
     const bool own_tangent_support = params.tangent_radius != 0.0f && params.tangent_radius != params.radius;
     const float tangent_radius = own_tangent_support ? params.tangent_radius : params.radius;
     if (own_tangent_support)
-        surface.radius_search(keypoint, tangent_radius, scratch.tangent_indices, scratch.tangent_squared_distances);
+        neighbours(tangent_radius, scratch.tangent_indices, scratch.tangent_squared_distances);
     const auto& indices = own_tangent_support ? scratch.tangent_indices : scratch.indices;
     const auto& squared_distances = own_tangent_support ? scratch.tangent_squared_distances : scratch.squared_distances;
     // The float expression and the strict ">" of PCL, so points on the ring boundary fall alike.
@@ -272,7 +282,7 @@ void board_frame(const Point& keypoint, const NeighborGrid& surface, std::span<c
 
 std::size_t board_frames(std::span<const Point> keypoints, const NeighborGrid& surface,
                          std::span<const Point> surface_normals, const BoardParams& params,
-                         std::span<LocalReferenceFrame> frames)
+                         std::span<LocalReferenceFrame> frames, const Neighborhoods* support)
 {
     const char* const where = "board_frames";
     if (surface_normals.size() != surface.size())
@@ -292,11 +302,19 @@ std::size_t board_frames(std::span<const Point> keypoints, const NeighborGrid& s
         throw Error(where, "margin_threshold must be a number >= 0, got " + std::to_string(params.margin_threshold));
     if (!std::isfinite(params.hole_size_probability) || !std::isfinite(params.steep_threshold))
         throw Error(where, "hole_size_probability and steep_threshold must be numbers");
+    if (support) {
+        if (!support->is_of(surface.points(), keypoints))
+            throw Error(where, "the support neighbourhoods are of other keypoints or another surface");
+        const float needed = std::max(params.radius, params.tangent_radius);
+        if (support->radius < needed)
+            throw Error(where, "the support neighbourhoods reach " + std::to_string(support->radius) +
+                                   ", the frames need " + std::to_string(needed));
+    }
 
     tbb::parallel_for(tbb::blocked_range<std::size_t>(0, keypoints.size(), 64), [&](const auto& range) {
         Scratch scratch;
         for (std::size_t i = range.begin(); i < range.end(); ++i)
-            board_frame(keypoints[i], surface, surface_normals, params, scratch, frames[i]);
+            board_frame(keypoints[i], surface, surface_normals, params, support, i, scratch, frames[i]);
     });
     return std::size_t(std::count_if(frames.begin(), frames.end(),
                                      [](const LocalReferenceFrame& f) { return !is_valid(f); }));

@@ -259,12 +259,12 @@ struct Scratch {
 
 // Fills the neighbourhood columns of `keypoint` and returns its size. The padding after it fills
 // a last block of lanes with values whose results are never used.
-std::size_t gather(const Point& keypoint, const NeighborGrid& surface, std::span<const Point> normals,
-                   const Constants& k, Scratch& s)
+// The candidates are `found` (surface indices) with their squared distances: a radius search, or
+// shared neighbourhoods of a radius at least as large (the keep test below bounds them).
+std::size_t gather(const Point& keypoint, std::span<const Point> points, std::span<const std::uint32_t> found_indices,
+                   std::span<const float> found_squared, std::span<const Point> normals, const Constants& k, Scratch& s)
 {
-    surface.radius_search(keypoint, float(k.radius), s.found, s.found_squared);
-    const std::span<const Point> points = surface.points();
-    const std::size_t found = s.found.size();
+    const std::size_t found = found_indices.size();
     s.reserve(found);
     // Written unconditionally, kept by advancing `count`: no branch to mispredict. The tests are
     // on bit patterns, cheaper than float comparisons here: squared distances are >= +0, where
@@ -275,8 +275,8 @@ std::size_t gather(const Point& keypoint, const NeighborGrid& surface, std::span
     const std::uint32_t squared_bound = bits(k.squared), nonzero_bound = bits(k.nonzero_squared);
     std::size_t count = 0;
     for (std::size_t i = 0; i < found; ++i) {
-        const std::uint32_t d2 = bits(s.found_squared[i]);
-        const std::uint32_t index = s.found[i];
+        const std::uint32_t d2 = bits(found_squared[i]);
+        const std::uint32_t index = found_indices[i];
         const Point& p = points[index];
         const float dx = p.x() - keypoint.x(), dy = p.y() - keypoint.y(), dz = p.z() - keypoint.z();
         // PCL skips points equal to the keypoint (itself, duplicates: all offsets +-0) in the
@@ -288,7 +288,7 @@ std::size_t gather(const Point& keypoint, const NeighborGrid& surface, std::span
         s.dx[count] = dx;
         s.dy[count] = dy;
         s.dz[count] = dz;
-        s.squared[count] = s.found_squared[i];
+        s.squared[count] = found_squared[i];
         s.index[count] = index;
         s.nx[count] = described ? n.x() : 0.0f;
         s.ny[count] = described ? n.y() : 0.0f;
@@ -524,12 +524,22 @@ bool shot_histogram(Scratch& s, std::size_t count, const Constants& k, const Loc
 }
 
 // Frame and descriptor of one keypoint; false when either is undefined.
-bool describe(const Point& keypoint, const NeighborGrid& surface, std::span<const Point> normals, const Constants& k,
-              Scratch& s, LocalReferenceFrame& frame, std::span<float> descriptor)
+// `support`: when given, the neighbourhoods of the keypoints (this one is `at`), read instead of
+// searching the grid.
+bool describe(const Point& keypoint, const NeighborGrid& surface, std::span<const Point> normals,
+              const Neighborhoods* support, std::size_t at, const Constants& k, Scratch& s, LocalReferenceFrame& frame,
+              std::span<float> descriptor)
 {
     constexpr float nan = std::numeric_limits<float>::quiet_NaN();
     if (keypoint.allFinite()) {
-        const std::size_t count = gather(keypoint, surface, normals, k, s);
+        std::size_t count = 0;
+        if (support) {
+            count = gather(keypoint, surface.points(), support->indices_of(at), support->squared_distances_of(at),
+                           normals, k, s);
+        } else {
+            surface.radius_search(keypoint, float(k.radius), s.found, s.found_squared);
+            count = gather(keypoint, surface.points(), s.found, s.found_squared, normals, k, s);
+        }
         // PCL's own test for too small a histogram support (5 points, the keypoint included)
         // cannot fail once the frame is defined: that takes 5 neighbours besides the keypoint.
         if (shot_frame(s, count, k, frame)) return shot_histogram(s, count, k, frame, descriptor);
@@ -543,7 +553,8 @@ bool describe(const Point& keypoint, const NeighborGrid& surface, std::span<cons
 
 std::size_t shot_descriptors(std::span<const Point> keypoints, const NeighborGrid& surface,
                              std::span<const Point> surface_normals, const ShotParams& params,
-                             std::span<LocalReferenceFrame> frames, std::span<float> descriptors)
+                             std::span<LocalReferenceFrame> frames, std::span<float> descriptors,
+                             const Neighborhoods* support)
 {
     if (!(params.radius > 0.0f) || !std::isfinite(params.radius))
         throw Error("shot_descriptors", "radius must be a positive number, got " + std::to_string(params.radius));
@@ -556,6 +567,11 @@ std::size_t shot_descriptors(std::span<const Point> keypoints, const NeighborGri
     if (descriptors.size() != keypoints.size() * shot_size)
         throw Error("shot_descriptors", std::to_string(descriptors.size()) + " descriptor values for " +
                                             std::to_string(keypoints.size()) + " keypoints (352 each)");
+    if (support && !support->is_of(surface.points(), keypoints))
+        throw Error("shot_descriptors", "the support neighbourhoods are of other keypoints or another surface");
+    if (support && support->radius < params.radius)
+        throw Error("shot_descriptors", "the support neighbourhoods reach " + std::to_string(support->radius) +
+                                            ", the descriptors need " + std::to_string(params.radius));
 
     const Constants constants(params.radius);
     return tbb::parallel_reduce(
@@ -563,7 +579,7 @@ std::size_t shot_descriptors(std::span<const Point> keypoints, const NeighborGri
         [&](const tbb::blocked_range<std::size_t>& range, std::size_t undefined) {
             Scratch scratch;
             for (std::size_t i = range.begin(); i < range.end(); ++i) {
-                if (!describe(keypoints[i], surface, surface_normals, constants, scratch, frames[i],
+                if (!describe(keypoints[i], surface, surface_normals, support, i, constants, scratch, frames[i],
                               descriptors.subspan(i * shot_size, shot_size)))
                     ++undefined;
             }

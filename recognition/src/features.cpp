@@ -1,13 +1,9 @@
 #include "mfpc/recognition/features.hpp"
 
 #include <algorithm>
-#include <atomic>
 #include <chrono>
 #include <limits>
 #include <string>
-
-#include <tbb/blocked_range.h>
-#include <tbb/parallel_for.h>
 
 #include "mfpc/core/error.hpp"
 #include "mfpc/index/neighbor_grid.hpp"
@@ -50,18 +46,13 @@ Features describe_keypoints(std::span<const Point> surface, std::span<const std:
     std::vector<Point> keypoint_points(keypoints.size());
     for (std::size_t i = 0; i < keypoints.size(); ++i) keypoint_points[i] = surface[keypoints[i]];
 
+    // One search of the larger support per keypoint, which BOARD and SHOT then share.
+    const Neighborhoods neighborhoods = surface_grid.radius_neighborhoods(keypoint_points, support);
+
     // Normals only where a descriptor or frame reads them: the surface points within the support
-    // of some keypoint. The same value is stored by every writer, so the mark is race-free in
-    // effect; atomic_ref makes it so in law.
+    // of some keypoint.
     std::vector<std::uint8_t> needed(surface.size(), 0);
-    tbb::parallel_for(tbb::blocked_range<std::size_t>(0, keypoints.size(), 64), [&](const auto& range) {
-        std::vector<std::uint32_t> neighbours;
-        std::vector<float> distances;
-        for (std::size_t i = range.begin(); i < range.end(); ++i) {
-            surface_grid.radius_search(keypoint_points[i], support, neighbours, distances);
-            for (std::uint32_t n : neighbours) std::atomic_ref<std::uint8_t>(needed[n]).store(1, std::memory_order_relaxed);
-        }
-    });
+    for (const std::uint32_t n : neighborhoods.indices) needed[n] = 1;
     std::vector<std::uint32_t> queries;
     for (std::size_t i = 0; i < surface.size(); ++i)
         if (needed[i]) queries.push_back(std::uint32_t(i));
@@ -83,13 +74,14 @@ Features describe_keypoints(std::span<const Point> surface, std::span<const std:
     std::vector<LocalReferenceFrame> board(keypoints.size());
     BoardParams board_params;
     board_params.radius = params.lrf_radius;
-    board_frames(keypoint_points, surface_grid, normals, board_params, board);
+    board_frames(keypoint_points, surface_grid, normals, board_params, board, &neighborhoods);
     time.lrf_ms += elapsed_ms(start);
 
     start = std::chrono::steady_clock::now();
     std::vector<LocalReferenceFrame> shot_frames(keypoints.size());
     std::vector<float> descriptors(keypoints.size() * shot_size);
-    shot_descriptors(keypoint_points, surface_grid, normals, ShotParams{params.shot_radius}, shot_frames, descriptors);
+    shot_descriptors(keypoint_points, surface_grid, normals, ShotParams{params.shot_radius}, shot_frames, descriptors,
+                     &neighborhoods);
     time.descriptors_ms += elapsed_ms(start);
 
     Features features;

@@ -1,4 +1,5 @@
 #include <algorithm>
+#include <limits>
 #include <random>
 #include <span>
 #include <utility>
@@ -64,6 +65,44 @@ TEST(NeighborGrid, RadiusSearchFindsExactlyThePointsWithinTheRadius)
             EXPECT_EQ(indices, expected) << "cell " << cell << " query " << q;
         }
     }
+}
+
+// Shared neighbourhoods are the searches themselves, list for list and in order, for the radius
+// they were made with and for any smaller one; a larger radius is refused.
+TEST(NeighborGrid, NeighborhoodsAreTheRadiusSearchesOfEachCentre)
+{
+    const auto points = test::random_points(20000, 11);
+    const NeighborGrid grid(points, 0.08f);
+    std::vector<Point> centers;
+    for (std::size_t q = 0; q < points.size(); q += 97) centers.push_back(points[q]);
+    centers.push_back(Point(5.0f, 5.0f, 5.0f));  // far from every point: an empty list
+    const float radius = 0.08f;
+    const Neighborhoods hoods = grid.radius_neighborhoods(centers, radius);
+    ASSERT_EQ(hoods.size(), centers.size());
+    EXPECT_EQ(hoods.radius, radius);
+    EXPECT_TRUE(hoods.is_of(points, centers));
+    EXPECT_FALSE(hoods.is_of(std::span(points).first(10), centers));
+    EXPECT_FALSE(hoods.is_of(points, std::span(centers).first(3)));
+    std::vector<std::uint32_t> expected, got;
+    std::vector<float> expected_d2, got_d2;
+    for (std::size_t c = 0; c < centers.size(); ++c) {
+        grid.radius_search(centers[c], radius, expected, expected_d2);
+        EXPECT_TRUE(std::equal(expected.begin(), expected.end(), hoods.indices_of(c).begin(), hoods.indices_of(c).end()))
+            << "centre " << c;
+        EXPECT_TRUE(std::equal(expected_d2.begin(), expected_d2.end(), hoods.squared_distances_of(c).begin(),
+                               hoods.squared_distances_of(c).end()));
+        for (const float smaller : {0.08f, 0.05f, 0.0123f}) {
+            grid.radius_search(centers[c], smaller, expected, expected_d2);
+            hoods.within(c, smaller, got, got_d2);
+            EXPECT_EQ(got, expected) << "centre " << c << " radius " << smaller;
+            EXPECT_EQ(got_d2, expected_d2);
+        }
+    }
+    EXPECT_TRUE(hoods.indices_of(centers.size() - 1).empty());
+    EXPECT_THROW(hoods.within(0, 0.09f, got, got_d2), Error);
+    for (const float bad : {0.0f, -0.1f, std::numeric_limits<float>::quiet_NaN()})
+        EXPECT_THROW(grid.radius_neighborhoods(centers, bad), Error) << bad;
+    EXPECT_EQ(grid.radius_neighborhoods({}, radius).size(), 0u);
 }
 
 TEST(NeighborGrid, KnnSearchMatchesBruteForceIncludingTies)

@@ -194,6 +194,42 @@ TEST(Board, SameBitsAtAnyThreadCount)
     }
 }
 
+// Frames from neighbourhoods shared at a larger radius (as SHOT's) are the frames of the kernel's
+// own searches, bit for bit, with and without a tangent radius of their own.
+TEST(Board, SharedNeighborhoodsGiveTheSameFrames)
+{
+    const Surface surface = curved_patch(2, 0.0005f);
+    const auto keypoints = every(surface.points, 11);
+    const NeighborGrid grid(surface.points, 0.02f);
+    const Neighborhoods shared = grid.radius_neighborhoods(keypoints, 0.02f);
+    for (const float tangent : {0.0f, 0.012f, 0.02f}) {
+        BoardParams params;
+        params.tangent_radius = tangent;
+        std::vector<LocalReferenceFrame> searched(keypoints.size()), read(keypoints.size());
+        const std::size_t undefined = board_frames(keypoints, grid, surface.normals, params, searched);
+        EXPECT_EQ(board_frames(keypoints, grid, surface.normals, params, read, &shared), undefined);
+        EXPECT_EQ(std::memcmp(searched.data(), read.data(), searched.size() * sizeof(LocalReferenceFrame)), 0)
+            << "tangent radius " << tangent;
+    }
+    // Neighbourhoods too small for a support, of other keypoints or of another surface are refused.
+    std::vector<LocalReferenceFrame> frames(keypoints.size());
+    const Neighborhoods small = grid.radius_neighborhoods(keypoints, 0.01f);
+    EXPECT_THROW(board_frames(keypoints, grid, surface.normals, BoardParams{}, frames, &small), Error);
+    BoardParams wide;
+    wide.tangent_radius = 0.03f;
+    EXPECT_THROW(board_frames(keypoints, grid, surface.normals, wide, frames, &shared), Error);
+    const Neighborhoods fewer = grid.radius_neighborhoods(std::span(keypoints).first(3), 0.02f);
+    EXPECT_THROW(board_frames(keypoints, grid, surface.normals, BoardParams{}, frames, &fewer), Error);
+    std::vector<Point> moved = keypoints;
+    moved[0].x() += 0.001f;
+    const Neighborhoods elsewhere = grid.radius_neighborhoods(moved, 0.02f);
+    EXPECT_THROW(board_frames(keypoints, grid, surface.normals, BoardParams{}, frames, &elsewhere), Error);
+    const std::vector<Point> copy = surface.points;
+    const NeighborGrid other(copy, 0.02f);
+    const Neighborhoods other_surface = other.radius_neighborhoods(keypoints, 0.02f);
+    EXPECT_THROW(board_frames(keypoints, grid, surface.normals, BoardParams{}, frames, &other_surface), Error);
+}
+
 TEST(Board, BadInputThrows)
 {
     const Surface surface = curved_patch(3, 0.0f);

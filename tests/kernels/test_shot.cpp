@@ -414,6 +414,42 @@ TEST(Shot, BitIdenticalForAnyThreadCount)
     EXPECT_EQ(std::memcmp(one.frames.data(), two.frames.data(), one.frames.size() * sizeof(LocalReferenceFrame)), 0);
 }
 
+// Descriptors from neighbourhoods shared at the radius or a larger one are those of the kernel's
+// own searches, bit for bit.
+TEST(Shot, SharedNeighborhoodsGiveTheSameDescriptors)
+{
+    const Surface s = wavy_surface(3000, 5);
+    const Result searched = describe(s.keypoints, s.points, s.normals);
+    const NeighborGrid grid(s.points, 0.02f);
+    for (const float shared_radius : {0.02f, 0.03f}) {
+        const Neighborhoods shared = grid.radius_neighborhoods(s.keypoints, shared_radius);
+        Result read;
+        read.frames.resize(s.keypoints.size());
+        read.descriptors.resize(s.keypoints.size() * shot_size);
+        read.undefined =
+            shot_descriptors(s.keypoints, grid, s.normals, ShotParams{0.02f}, read.frames, read.descriptors, &shared);
+        EXPECT_EQ(read.undefined, searched.undefined);
+        EXPECT_EQ(std::memcmp(read.descriptors.data(), searched.descriptors.data(),
+                              read.descriptors.size() * sizeof(float)),
+                  0)
+            << "shared radius " << shared_radius;
+        EXPECT_EQ(std::memcmp(read.frames.data(), searched.frames.data(),
+                              read.frames.size() * sizeof(LocalReferenceFrame)),
+                  0);
+    }
+    std::vector<LocalReferenceFrame> frames(s.keypoints.size());
+    std::vector<float> descriptors(s.keypoints.size() * shot_size);
+    const Neighborhoods small = grid.radius_neighborhoods(s.keypoints, 0.01f);
+    EXPECT_THROW(shot_descriptors(s.keypoints, grid, s.normals, ShotParams{0.02f}, frames, descriptors, &small), Error);
+    const Neighborhoods fewer = grid.radius_neighborhoods(std::span(s.keypoints).first(2), 0.02f);
+    EXPECT_THROW(shot_descriptors(s.keypoints, grid, s.normals, ShotParams{0.02f}, frames, descriptors, &fewer), Error);
+    const std::vector<Point> copy = s.points;
+    const NeighborGrid other(copy, 0.02f);
+    const Neighborhoods other_surface = other.radius_neighborhoods(s.keypoints, 0.02f);
+    EXPECT_THROW(
+        shot_descriptors(s.keypoints, grid, s.normals, ShotParams{0.02f}, frames, descriptors, &other_surface), Error);
+}
+
 TEST(Shot, RejectsBadInput)
 {
     const Surface s = wavy_surface(500, 8);

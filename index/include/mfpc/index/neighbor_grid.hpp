@@ -8,6 +8,37 @@
 
 namespace mfpc {
 
+// The radius neighbourhoods of many centres, packed one after another: centre i's neighbours are
+// entries [offsets[i], offsets[i + 1]) of indices and squared_distances, in radius_search's order.
+// Kernels that each need a support of at most `radius` around the same centres (the LRF and SHOT
+// of the keypoints) read them here instead of each searching again.
+struct Neighborhoods {
+    std::span<const Point> surface;  // the searched grid's points, which indices number
+    std::vector<Point> centers;
+    float radius = 0.0f;
+    std::vector<std::size_t> offsets{0};
+    std::vector<std::uint32_t> indices;
+    std::vector<float> squared_distances;
+
+    std::size_t size() const { return offsets.size() - 1; }
+    // Whether these are neighbourhoods in `points` of exactly `at` (bit for bit): what a kernel
+    // given them in place of its own searches must check.
+    bool is_of(std::span<const Point> points, std::span<const Point> at) const;
+    std::span<const std::uint32_t> indices_of(std::size_t center) const
+    {
+        return std::span<const std::uint32_t>(indices).subspan(offsets[center], offsets[center + 1] - offsets[center]);
+    }
+    std::span<const float> squared_distances_of(std::size_t center) const
+    {
+        return std::span<const float>(squared_distances)
+            .subspan(offsets[center], offsets[center + 1] - offsets[center]);
+    }
+    // Centre i's neighbours with squared distance < radius^2 (radius <= this->radius) into the
+    // cleared vectors, in the same order: what radius_search(centre, radius) finds.
+    void within(std::size_t center, float radius, std::vector<std::uint32_t>& indices,
+                std::vector<float>& squared_distances) const;
+};
+
 // A hashed uniform grid over a cloud for the fixed-radius and k-nearest queries of the descriptor
 // kernels (normals, LRFs, SHOT). Built once in O(n) (a radix sort by cell); points are copied in
 // cell order so a query reads contiguous memory. Exact: a radius query returns every point with squared distance
@@ -29,6 +60,10 @@ public:
     // a cell) but not by distance.
     void radius_search(const Point& center, float radius, std::vector<std::uint32_t>& indices,
                        std::vector<float>& squared_distances) const;
+
+    // radius_search around every centre, in parallel (the same result at any thread count).
+    // Throws mfpc::Error for a radius that is not positive and finite.
+    Neighborhoods radius_neighborhoods(std::span<const Point> centers, float radius) const;
 
     // The min(k, size()) nearest points to `center`, by ascending (squared distance, index).
     void knn_search(const Point& center, int k, std::vector<std::uint32_t>& indices,

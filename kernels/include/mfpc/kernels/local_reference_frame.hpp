@@ -51,10 +51,15 @@ struct BoardParams {
 // empties a whole sector gives the same x either way; where the placement decides (see board.cpp)
 // x can differ from a given PCL draw. Bit-identical at any thread count.
 //
+// `support`, when given, holds the keypoints' neighbourhoods in `surface` (from
+// surface.radius_neighborhoods(keypoints, r) with r >= both radii), read instead of searching: the
+// same frames, without a search per keypoint when SHOT shares them.
+//
 // frames.size() must equal keypoints.size() and surface_normals.size() surface.size(); throws
-// mfpc::Error when they do not or a parameter is invalid. Returns the number of undefined frames.
+// mfpc::Error when they do not, when `support` is of other keypoints, of another surface or of too
+// small a radius, or when a parameter is invalid. Returns the number of undefined frames.
 std::size_t board_frames(std::span<const Point> keypoints, const NeighborGrid& surface,
                          std::span<const Point> surface_normals, const BoardParams& params,
-                         std::span<LocalReferenceFrame> frames);
+                         std::span<LocalReferenceFrame> frames, const Neighborhoods* support = nullptr);
 
 }  // namespace mfpc

@@ -29,10 +29,18 @@ struct ShotParams {
 // finite or has fewer than 5 neighbours besides itself (or a degenerate support); the descriptor
 // alone, the frame kept, when no neighbour has a normal. Returns the number of keypoints whose
 // frame or descriptor is undefined. Parallel over keypoints; the output does not depend on the
-// number of threads. Throws mfpc::Error for a radius that is not positive and finite, or spans of
-// the wrong size (normals vs surface, frames vs keypoints, descriptors vs 352 x keypoints).
+// number of threads.
+//
+// `support`, when given, holds the keypoints' neighbourhoods in `surface` (from
+// surface.radius_neighborhoods(keypoints, r), r >= the radius), read instead of searching: the
+// same descriptors, without a search per keypoint when BOARD shares them.
+//
+// Throws mfpc::Error for a radius that is not positive and finite, spans of the wrong size (normals
+// vs surface, frames vs keypoints, descriptors vs 352 x keypoints), or a `support` of other
+// keypoints, of another surface or of too small a radius.
 std::size_t shot_descriptors(std::span<const Point> keypoints, const NeighborGrid& surface,
                              std::span<const Point> surface_normals, const ShotParams& params,
-                             std::span<LocalReferenceFrame> frames, std::span<float> descriptors);
+                             std::span<LocalReferenceFrame> frames, std::span<float> descriptors,
+                             const Neighborhoods* support = nullptr);
 
 }  // namespace mfpc
