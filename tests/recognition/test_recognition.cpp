@@ -1,6 +1,9 @@
 #include <cmath>
 #include <cstring>
+#include <filesystem>
+#include <ostream>
 #include <random>
+#include <string>
 #include <vector>
 
 #include <Eigen/Geometry>
@@ -141,6 +144,11 @@ struct SceneCase {
     std::size_t instances;
 };
 
+void PrintTo(const SceneCase& c, std::ostream* os)
+{
+    *os << c.scene << (c.fovea ? std::string(" with ") + c.fovea : std::string(" plain"));
+}
+
 class RealScenes : public ::testing::TestWithParam<SceneCase> {};
 
 TEST_P(RealScenes, DefaultsFindEveryInstanceAndNothingElse)
@@ -180,7 +188,12 @@ INSTANTIATE_TEST_SUITE_P(Shared, RealScenes,
                                            SceneCase{"milk_cartoon_all_small_clorox.pcd",
                                                      "milk_cartoon_all_small_clorox.gt.json", "milk_carton.json", 1},
                                            SceneCase{"milk_pair.pcd", "milk_pair.gt.json", nullptr, 2},
-                                           SceneCase{"milk_pair.pcd", "milk_pair.gt.json", "milk_pair_two.json", 2}));
+                                           SceneCase{"milk_pair.pcd", "milk_pair.gt.json", "milk_pair_two.json", 2}),
+                         [](const ::testing::TestParamInfo<SceneCase>& info) {
+                             // The scene's file stem and the mode: milk_pair_mfpc, not the case's bytes.
+                             std::string name = std::filesystem::path(info.param.scene).stem().string();
+                             return name + (info.param.fovea ? "_mfpc" : "_plain");
+                         });
 
 // The whole pipeline gives the same bits with one thread and two.
 TEST(Recognize, BitIdenticalAcrossThreadCounts)

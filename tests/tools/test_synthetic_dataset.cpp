@@ -1,5 +1,7 @@
 // A synthetic dataset as `mfpc synth` writes it, and the recognition stage on it: the instances of
 // a synthetic scene are found from the dataset's own model cache, with and without multifoveation.
+#include <ostream>
+
 #include <gtest/gtest.h>
 
 #include "mfpc/core/cloud_io.hpp"
@@ -12,6 +14,10 @@
 #include "test_support.hpp"
 
 namespace mfpc {
+
+// The mode's name in test listings (gtest looks for PrintTo beside the type).
+void PrintTo(FoveationMode mode, std::ostream* os) { *os << to_string(mode); }
+
 namespace {
 
 const SyntheticDataset& dataset()
