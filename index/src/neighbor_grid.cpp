@@ -37,15 +37,34 @@ template <class Entry, class Key>
 void radix_sort(std::vector<Entry>& entries, int low, int bits, Key&& key)
 {
     constexpr int digit_bits = 11;
-    constexpr std::uint64_t digit_mask = (1u << digit_bits) - 1;
+    constexpr std::size_t buckets = std::size_t(1) << digit_bits;
+    constexpr std::uint64_t digit_mask = buckets - 1;
+    const int passes = (bits + digit_bits - 1) / digit_bits;
+    // The counts of every pass in one read of the entries (a stable pass does not change them),
+    // their chains of increments side by side.
+    std::vector<std::uint32_t> starts(std::size_t(passes) * buckets, 0);
+    for (const Entry& entry : entries) {
+        const std::uint64_t k = key(entry) >> low;
+        for (int p = 0; p < passes; ++p) ++starts[std::size_t(p) * buckets + ((k >> (p * digit_bits)) & digit_mask)];
+    }
     std::vector<Entry> scratch(entries.size());
-    for (int shift = low; shift < low + bits; shift += digit_bits) {
-        std::vector<std::uint32_t> start((1u << digit_bits) + 1, 0);
-        for (const Entry& entry : entries) ++start[((key(entry) >> shift) & digit_mask) + 1];
-        for (std::size_t d = 1; d < start.size(); ++d) start[d] += start[d - 1];
+    for (int p = 0; p < passes; ++p) {
+        std::uint32_t* start = starts.data() + std::size_t(p) * buckets;
+        // A digit that every entry shares would move nothing.
+        if (std::find(start, start + buckets, std::uint32_t(entries.size())) != start + buckets) continue;
+        std::uint32_t sum = 0;
+        for (std::size_t d = 0; d < buckets; ++d) sum += std::exchange(start[d], sum);
+        const int shift = low + p * digit_bits;
         for (const Entry& entry : entries) scratch[start[(key(entry) >> shift) & digit_mask]++] = entry;
         entries.swap(scratch);
     }
+}
+
+// floor(v) for |v| <= 1e9, without the library call std::floor is on baseline x86-64.
+inline int floor_to_int(float v)
+{
+    const int t = int(v);
+    return t - (float(t) > v);
 }
 
 }  // namespace
@@ -62,18 +81,23 @@ NeighborGrid::NeighborGrid(std::span<const Point> points, float cell_size)
     std::vector<Eigen::Vector3i> cells(points.size());
     tbb::parallel_for(tbb::blocked_range<std::size_t>(0, points.size(), 4096), [&](const auto& range) {
         for (std::size_t i = range.begin(); i < range.end(); ++i) {
-            const Eigen::Vector3f c = (points[i] * inverse_cell_).array().floor();
-            if (!c.allFinite() || c.cwiseAbs().maxCoeff() > 1e9f)
+            const Eigen::Vector3f q = points[i] * inverse_cell_;
+            // Also false for NaN.
+            if (!(std::abs(q.x()) <= 1e9f && std::abs(q.y()) <= 1e9f && std::abs(q.z()) <= 1e9f))
                 throw Error("neighbour grid", "point " + std::to_string(i) + " is not finite or too far out");
-            cells[i] = c.cast<int>();
+            cells[i] = Eigen::Vector3i(floor_to_int(q.x()), floor_to_int(q.y()), floor_to_int(q.z()));
         }
     });
-    min_cell_ = cells[0];
-    max_cell_ = cells[0];
-    for (const auto& c : cells) {
-        min_cell_ = min_cell_.cwiseMin(c);
-        max_cell_ = max_cell_.cwiseMax(c);
+    int lo[3] = {cells[0].x(), cells[0].y(), cells[0].z()};
+    int hi[3] = {lo[0], lo[1], lo[2]};
+    for (const Eigen::Vector3i& c : cells) {
+        for (int a = 0; a < 3; ++a) {
+            lo[a] = std::min(lo[a], c[a]);
+            hi[a] = std::max(hi[a], c[a]);
+        }
     }
+    min_cell_ = Eigen::Vector3i(lo[0], lo[1], lo[2]);
+    max_cell_ = Eigen::Vector3i(hi[0], hi[1], hi[2]);
     const Eigen::Vector3i extent = max_cell_ - min_cell_;
     if (extent.maxCoeff() >= (1 << axis_bits) - 1)
         throw Error("neighbour grid", "the cloud spans more than 2^21 cells of " + std::to_string(cell_size) +
@@ -91,6 +115,12 @@ NeighborGrid::NeighborGrid(std::span<const Point> points, float cell_size)
     const int key_bits = int(std::bit_width(cell_count - 1));
     const int index_bits = int(std::bit_width(points.size() - 1));
     std::vector<std::uint32_t> order(points.size());
+    // Each cell's points are one run of the sorted order, starting where the key changes.
+    auto mark_cell = [&, previous = ~std::uint64_t(0)](std::size_t i, std::uint64_t key) mutable {
+        if (key == previous) return;
+        cell_begin_.push_back(std::uint32_t(i));
+        previous = key;
+    };
     if (key_bits + index_bits <= 64) {
         std::vector<std::uint64_t> packed(points.size());
         tbb::parallel_for(tbb::blocked_range<std::size_t>(0, points.size(), 4096), [&](const auto& range) {
@@ -99,33 +129,37 @@ NeighborGrid::NeighborGrid(std::span<const Point> points, float cell_size)
         });
         radix_sort(packed, index_bits, key_bits, [](std::uint64_t entry) { return entry; });
         const std::uint64_t index_mask = (std::uint64_t(1) << index_bits) - 1;
-        for (std::size_t i = 0; i < packed.size(); ++i) order[i] = std::uint32_t(packed[i] & index_mask);
+        for (std::size_t i = 0; i < packed.size(); ++i) {
+            order[i] = std::uint32_t(packed[i] & index_mask);
+            mark_cell(i, packed[i] >> index_bits);
+        }
     } else {
         std::vector<std::pair<std::uint64_t, std::uint32_t>> pairs(points.size());
         tbb::parallel_for(tbb::blocked_range<std::size_t>(0, points.size(), 4096), [&](const auto& range) {
             for (std::size_t i = range.begin(); i < range.end(); ++i) pairs[i] = {cell_key(cells[i]), std::uint32_t(i)};
         });
         radix_sort(pairs, 0, key_bits, [](const auto& entry) { return entry.first; });
-        for (std::size_t i = 0; i < pairs.size(); ++i) order[i] = pairs[i].second;
-    }
-
-    // Cells and rows from the cell coordinates, where the keys would need a 64-bit division each.
-    ordered_points_.resize(points.size());
-    ordered_indices_ = std::move(order);
-    std::size_t row_count = 0;
-    std::vector<std::uint64_t> row_keys;  // per cell
-    for (std::size_t i = 0; i < ordered_indices_.size(); ++i) {
-        const std::uint32_t index = ordered_indices_[i];
-        ordered_points_[i] = points[index];
-        const Eigen::Vector3i& cell = cells[index];
-        if (i == 0 || cell != cells[ordered_indices_[i - 1]]) {
-            const std::uint64_t row_key =
-                std::uint64_t(cell.z() - min_cell_.z()) * rows_per_slice_ + std::uint64_t(cell.y() - min_cell_.y());
-            if (row_keys.empty() || row_key != row_keys.back()) ++row_count;
-            cell_x_.push_back(cell.x());
-            cell_begin_.push_back(std::uint32_t(i));
-            row_keys.push_back(row_key);
+        for (std::size_t i = 0; i < pairs.size(); ++i) {
+            order[i] = pairs[i].second;
+            mark_cell(i, pairs[i].first);
         }
+    }
+    ordered_indices_ = std::move(order);
+    ordered_points_.resize(points.size());
+    tbb::parallel_for(tbb::blocked_range<std::size_t>(0, points.size(), 4096), [&](const auto& range) {
+        for (std::size_t i = range.begin(); i < range.end(); ++i) ordered_points_[i] = points[ordered_indices_[i]];
+    });
+
+    // Cell and row numbers from each cell's coordinates, where the keys would need a 64-bit
+    // division each.
+    std::size_t row_count = 0;
+    std::vector<std::uint64_t> row_keys(cell_begin_.size());  // per cell
+    cell_x_.resize(cell_begin_.size());
+    for (std::size_t c = 0; c < cell_begin_.size(); ++c) {
+        const Eigen::Vector3i& cell = cells[ordered_indices_[cell_begin_[c]]];
+        row_keys[c] = std::uint64_t(cell.z() - min_cell_.z()) * rows_per_slice_ + std::uint64_t(cell.y() - min_cell_.y());
+        if (c == 0 || row_keys[c] != row_keys[c - 1]) ++row_count;
+        cell_x_[c] = cell.x();
     }
     cell_begin_.push_back(std::uint32_t(points.size()));
 

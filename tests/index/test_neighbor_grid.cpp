@@ -169,6 +169,32 @@ TEST(NeighborGrid, AnExtentOfMillionsOfCellsPerAxisStillFindsEveryNeighbour)
     }
 }
 
+// Cells whose keys share a whole sort digit (one row of cells, x cells all multiples of 2048, so
+// the low 11-bit digit of every key is 0): the pass over that digit is skipped, and every query
+// still finds what a scan finds.
+TEST(NeighborGrid, KeysSharingADigitAreStillSorted)
+{
+    std::mt19937 rng(9);
+    std::uniform_real_distribution<float> jitter(0.1f, 0.9f);
+    std::vector<Point> points;
+    for (int i = 0; i < 400; ++i) {
+        const float cell_x = float(2048 * (i % 13));
+        points.emplace_back(cell_x + jitter(rng), jitter(rng), jitter(rng));
+    }
+    const NeighborGrid grid(points, 1.0f);
+    std::vector<std::uint32_t> indices;
+    std::vector<float> distances;
+    for (std::size_t q = 0; q < points.size(); q += 3) {
+        grid.radius_search(points[q], 1.5f, indices, distances);
+        std::vector<std::uint32_t> expected;
+        for (std::size_t i = 0; i < points.size(); ++i)
+            if (brute_distance(points[i], points[q]) < 1.5f * 1.5f) expected.push_back(std::uint32_t(i));
+        std::sort(indices.begin(), indices.end());
+        EXPECT_EQ(indices, expected) << "query " << q;
+        expect_nearest_as_brute_force(grid, points, points[q] + Point(0.3f, -0.2f, 0.1f), 2.0f, int(q));
+    }
+}
+
 TEST(NeighborGrid, NearestBreaksTiesByIndexOnCellFaces)
 {
     // Points on a lattice of the cell size, so every one lies on cell faces, shuffled and some
