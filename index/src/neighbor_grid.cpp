@@ -13,6 +13,7 @@
 #include <tbb/parallel_sort.h>
 
 #include "mfpc/core/error.hpp"
+#include "mfpc/core/floor.hpp"
 #include "nearest_candidates.hpp"
 
 namespace mfpc {
@@ -60,13 +61,6 @@ void radix_sort(std::vector<Entry>& entries, int low, int bits, Key&& key)
     }
 }
 
-// floor(v) for |v| <= 1e9, without the library call std::floor is on baseline x86-64.
-inline int floor_to_int(float v)
-{
-    const int t = int(v);
-    return t - (float(t) > v);
-}
-
 }  // namespace
 
 NeighborGrid::NeighborGrid(std::span<const Point> points, float cell_size)
@@ -85,7 +79,7 @@ NeighborGrid::NeighborGrid(std::span<const Point> points, float cell_size)
             // Also false for NaN.
             if (!(std::abs(q.x()) <= 1e9f && std::abs(q.y()) <= 1e9f && std::abs(q.z()) <= 1e9f))
                 throw Error("neighbour grid", "point " + std::to_string(i) + " is not finite or too far out");
-            cells[i] = Eigen::Vector3i(floor_to_int(q.x()), floor_to_int(q.y()), floor_to_int(q.z()));
+            cells[i] = Eigen::Vector3i(floor_to<int>(q.x()), floor_to<int>(q.y()), floor_to<int>(q.z()));
         }
     });
     int lo[3] = {cells[0].x(), cells[0].y(), cells[0].z()};

@@ -14,6 +14,7 @@
 #include <tbb/parallel_reduce.h>
 
 #include "mfpc/core/error.hpp"
+#include "mfpc/core/floor.hpp"
 #include "voxel_slots.hpp"
 
 namespace mfpc {
@@ -440,14 +441,8 @@ void keep_point(const PointCloud& cloud, std::uint32_t point, RegionOutput& out)
 constexpr std::int64_t max_voxels_per_axis = std::int64_t(1) << 21;
 
 // The voxel coordinate of x: floor(x * (1 / d)) in double, a multiplication by the inverse voxel
-// size as PCL's VoxelGrid does. The floor is written out because on baseline x86-64 std::floor is a
-// library call, which dominated the downsampling loop. Exact for |x / d| < 2^62.
-inline std::int64_t voxel_of(float x, double inverse)
-{
-    const double q = double(x) * inverse;
-    const auto t = static_cast<std::int64_t>(q);
-    return t - (double(t) > q);
-}
+// size as PCL's VoxelGrid does. Exact for |x / d| < 2^62.
+inline std::int64_t voxel_of(float x, double inverse) { return floor_to<std::int64_t>(double(x) * inverse); }
 
 // The members of one region: index runs when the regions came from foveation_regions (points then
 // read from the index's reordered copy), else the plain member list.
