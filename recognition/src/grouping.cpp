@@ -7,6 +7,7 @@
 #include <unordered_map>
 
 #include <Eigen/Geometry>
+#include <tbb/parallel_for.h>
 
 #include "mfpc/core/error.hpp"
 
@@ -195,14 +196,19 @@ std::vector<Instance> hough_grouping(const Features& model, const Features& scen
         return a.value != b.value ? a.value > b.value : a.order < b.order;
     });
 
-    std::vector<Instance> instances;
-    for (std::size_t rank = 0; rank < peaks.size(); ++rank) {
+    // The clusters are fitted in parallel; each fit draws from its own generator, seeded by its
+    // rank, so the instances do not depend on the threads.
+    std::vector<Instance> fitted(peaks.size());
+    std::vector<char> found(peaks.size(), 0);
+    tbb::parallel_for(std::size_t(0), peaks.size(), [&](std::size_t rank) {
         std::vector<Correspondence> cluster;
         for (std::uint32_t v : bins.at(keys[peaks[rank].order].first).voters) cluster.push_back(correspondences[v]);
-        Instance instance;
-        if (!fit_instance(model, scene, std::move(cluster), params, std::uint32_t(rank + 1), instance)) continue;
-        instance.votes = peaks[rank].value;
-        instances.push_back(std::move(instance));
+        found[rank] = fit_instance(model, scene, std::move(cluster), params, std::uint32_t(rank + 1), fitted[rank]);
+        fitted[rank].votes = peaks[rank].value;
+    });
+    std::vector<Instance> instances;
+    for (std::size_t rank = 0; rank < peaks.size(); ++rank) {
+        if (found[rank]) instances.push_back(std::move(fitted[rank]));
     }
     return instances;
 }

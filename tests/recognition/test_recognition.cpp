@@ -81,6 +81,19 @@ TEST(HoughGrouping, FindsTwoPlantedInstancesAmongOutliers)
         EXPECT_LT(error, 1e-4f);
         EXPECT_GE(instance.correspondences.size(), 50u);
     }
+    // The clusters are fitted in parallel: the same instances, bit for bit, on one thread.
+    tbb::global_control one_thread(tbb::global_control::max_allowed_parallelism, 1);
+    const auto serial = hough_grouping(model, scene, correspondences, GroupingParams{});
+    ASSERT_EQ(serial.size(), instances.size());
+    for (std::size_t i = 0; i < serial.size(); ++i) {
+        EXPECT_TRUE(serial[i].transform.matrix() == instances[i].transform.matrix());
+        EXPECT_EQ(serial[i].votes, instances[i].votes);
+        ASSERT_EQ(serial[i].correspondences.size(), instances[i].correspondences.size());
+        for (std::size_t c = 0; c < serial[i].correspondences.size(); ++c) {
+            EXPECT_EQ(serial[i].correspondences[c].model, instances[i].correspondences[c].model);
+            EXPECT_EQ(serial[i].correspondences[c].scene, instances[i].correspondences[c].scene);
+        }
+    }
 }
 
 TEST(RecognitionParams, DefaultsRoundTripAndBadValuesAreNamed)
