@@ -155,6 +155,56 @@ TEST(Matching, ScanEqualsKdTreeOnRealDescriptors)
     }
 }
 
+// The scan skips pairs by a lower bound of their distance (from norms of groups of values): over
+// several blocks of data, with distances spread around loose and tight thresholds and with
+// sparse descriptors (where that bound is nearly tight), it still finds every brute-force pair;
+// an undefined (NaN) descriptor matches nothing.
+TEST(Matching, ScanBoundsKeepEveryPairAcrossBlocks)
+{
+    std::mt19937 rng(11);
+    Features model = random_features(70, rng);
+    Features scene = random_features(601, rng);
+    std::uniform_int_distribution<std::size_t> pick(0, scene.size() - 1);
+    for (std::size_t i = 0; i < model.size(); ++i)
+        for (const float noise : {0.002f, 0.01f, 0.02f, 0.03f, 0.05f}) plant_near_copy(model, i, scene, pick(rng), noise, rng);
+    // Sparse descriptors: all of their weight in a few values.
+    for (std::size_t i = 60; i < 70; ++i) {
+        std::fill_n(model.descriptors.begin() + std::ptrdiff_t(i * shot_size), shot_size, 0.0f);
+        for (std::size_t v = 0; v < 3; ++v) model.descriptors[i * shot_size + (i * 37 + v * 101) % shot_size] = 0.57735f;
+        plant_near_copy(model, i, scene, pick(rng), 0.01f, rng);
+    }
+    const auto brute = [&](const MatchParams& params) { return brute_force(model, scene, params); };
+    for (const MatchDirection direction : {MatchDirection::model_to_scene, MatchDirection::scene_to_model}) {
+        for (const float threshold : {0.02f, 0.3f, 1.2f}) {
+            MatchParams params;
+            params.direction = direction;
+            params.threshold = threshold;
+            const auto expected = brute(params);
+            ASSERT_GE(expected.size(), 50u);
+            expect_same_pairs(match_descriptors(model, scene, params), expected, "scan");
+        }
+    }
+    // Undefined descriptors on both sides: no pair with them, the others unchanged.
+    MatchParams params;
+    params.threshold = 0.3f;
+    const auto before = match_descriptors(model, scene, params);
+    const std::size_t nan_model = 3, nan_scene = 300;
+    std::fill_n(model.descriptors.begin() + std::ptrdiff_t(nan_model * shot_size), shot_size, std::nanf(""));
+    std::fill_n(scene.descriptors.begin() + std::ptrdiff_t(nan_scene * shot_size), shot_size, std::nanf(""));
+    const auto after = match_descriptors(model, scene, params);
+    std::vector<Correspondence> kept;
+    for (const Correspondence& c : before)
+        if (c.model != nan_model && c.scene != nan_scene) kept.push_back(c);
+    for (const Correspondence& c : after) {
+        EXPECT_NE(c.model, nan_model);
+        EXPECT_NE(c.scene, nan_scene);
+    }
+    // Removing a scene descriptor can promote another into some model descriptor's k best.
+    EXPECT_GE(after.size(), kept.size());
+    for (const Correspondence& c : kept)
+        EXPECT_NE(std::find(after.begin(), after.end(), c), after.end()) << c.model << " " << c.scene;
+}
+
 TEST(Matching, EmptySidesFewDescriptorsAndBadParamsAreHandled)
 {
     std::mt19937 rng(3);
