@@ -303,6 +303,15 @@ bool Neighborhoods::is_of(std::span<const Point> points, std::span<const Point> 
            std::memcmp(centers.data(), at.data(), at.size() * sizeof(Point)) == 0;
 }
 
+void Neighborhoods::check_serves(std::span<const Point> points, std::span<const Point> at, float needed,
+                                 const char* where, const char* what) const
+{
+    if (!is_of(points, at)) throw Error(where, "the support neighbourhoods are of other keypoints or another surface");
+    if (radius < needed)
+        throw Error(where, "the support neighbourhoods reach " + std::to_string(radius) + ", " + what + " need " +
+                               std::to_string(needed));
+}
+
 void Neighborhoods::within(std::size_t center, float r, std::vector<std::uint32_t>& indices_out,
                            std::vector<float>& squared_out) const
 {

@@ -302,14 +302,9 @@ std::size_t board_frames(std::span<const Point> keypoints, const NeighborGrid& s
         throw Error(where, "margin_threshold must be a number >= 0, got " + std::to_string(params.margin_threshold));
     if (!std::isfinite(params.hole_size_probability) || !std::isfinite(params.steep_threshold))
         throw Error(where, "hole_size_probability and steep_threshold must be numbers");
-    if (support) {
-        if (!support->is_of(surface.points(), keypoints))
-            throw Error(where, "the support neighbourhoods are of other keypoints or another surface");
-        const float needed = std::max(params.radius, params.tangent_radius);
-        if (support->radius < needed)
-            throw Error(where, "the support neighbourhoods reach " + std::to_string(support->radius) +
-                                   ", the frames need " + std::to_string(needed));
-    }
+    if (support)
+        support->check_serves(surface.points(), keypoints, std::max(params.radius, params.tangent_radius), where,
+                              "the frames");
 
     tbb::parallel_for(tbb::blocked_range<std::size_t>(0, keypoints.size(), 64), [&](const auto& range) {
         Scratch scratch;

@@ -567,11 +567,7 @@ std::size_t shot_descriptors(std::span<const Point> keypoints, const NeighborGri
     if (descriptors.size() != keypoints.size() * shot_size)
         throw Error("shot_descriptors", std::to_string(descriptors.size()) + " descriptor values for " +
                                             std::to_string(keypoints.size()) + " keypoints (352 each)");
-    if (support && !support->is_of(surface.points(), keypoints))
-        throw Error("shot_descriptors", "the support neighbourhoods are of other keypoints or another surface");
-    if (support && support->radius < params.radius)
-        throw Error("shot_descriptors", "the support neighbourhoods reach " + std::to_string(support->radius) +
-                                            ", the descriptors need " + std::to_string(params.radius));
+    if (support) support->check_serves(surface.points(), keypoints, params.radius, "shot_descriptors", "the descriptors");
 
     const Constants constants(params.radius);
     return tbb::parallel_reduce(

@@ -99,13 +99,14 @@ static_assert(shot_size % group_size == 0);
 // one tile of group_count x 16 (group-major), so a block of 16 columns is read in one sweep.
 constexpr std::size_t tile_size = group_count * 16;
 
+// Descriptor counts rounded up to whole tiles.
+inline std::size_t whole_tiles(std::size_t count) { return (count + 15) / 16 * 16; }
+
 // The group norms of every descriptor: rows of group_count when `tiled` is false, else tiles of
-// 16 descriptors (zeros beyond the last one). `size` is set to the number of rows, or to that
-// number rounded up to a multiple of 16.
-std::vector<float> group_norms(const Features& f, bool tiled, std::size_t& size)
+// 16 descriptors (zeros beyond the last one).
+std::vector<float> group_norms(const Features& f, bool tiled)
 {
-    size = tiled ? (f.size() + 15) / 16 * 16 : f.size();
-    std::vector<float> norms(size * group_count, 0.0f);
+    std::vector<float> norms((tiled ? whole_tiles(f.size()) : f.size()) * group_count, 0.0f);
     for (std::size_t i = 0; i < f.size(); ++i) {
         const auto v = f.descriptor(i);
         for (std::size_t g = 0; g < group_count; ++g) {
@@ -206,11 +207,10 @@ void scan_nearest(const Features& data, const Features& queries, int k, float th
         }
         return norms;
     };
-    std::size_t query_rows = 0, data_columns = 0;
-    const std::vector<float> query_groups = group_norms(queries, false, query_rows);
-    const std::vector<float> data_groups = group_norms(data, true, data_columns);
-    const std::vector<float> query_norms = squared_norms(queries, query_rows);
-    const std::vector<float> data_norms = squared_norms(data, data_columns);
+    const std::vector<float> query_groups = group_norms(queries, false);
+    const std::vector<float> data_groups = group_norms(data, true);
+    const std::vector<float> query_norms = squared_norms(queries, queries.size());
+    const std::vector<float> data_norms = squared_norms(data, whole_tiles(data.size()));
     // Query rows per task and data columns per block (a multiple of 16; 128, 256 and 512 measured
     // alike, within the noise). The simple partitioner keeps tasks at task_rows whatever the thread
     // count.
@@ -222,7 +222,7 @@ void scan_nearest(const Features& data, const Features& queries, int k, float th
         std::vector<int> kept(count, 0);  // how many results each query has so far in found/distances
         for (std::size_t b0 = 0; b0 < data.size(); b0 += block_columns) {
             const std::size_t block = std::min(block_columns, data.size() - b0);
-            const std::size_t width = (block + 15) / 16 * 16;
+            const std::size_t width = whole_tiles(block);
             slack_products(query_groups.data() + range.begin() * group_count, query_norms.data() + range.begin(),
                            count, data_groups.data() + b0 / 16 * tile_size, data_norms.data() + b0, width, threshold,
                            slack.data(), masks.data());

@@ -224,7 +224,7 @@ std::vector<Instance> refine_and_verify(std::vector<Instance> instances, std::sp
         // would have stopped the sensor's ray, so a surface observed behind it refutes it. A point
         // that faces the sensor and is not hidden (something observed in front of it: no evidence
         // for or against it) is visible: only those are looked up for fitness.
-        place(instance.transform, points, scratch.placed);
+        if (refine.enabled) place(instance.transform, points, scratch.placed);  // ICP moved it
         const std::vector<Point>& at = scratch.placed;
         std::size_t facing = 0, visible = 0, inliers = 0, projected = 0, violations = 0;
         Spread facing_spread, inlier_spread;

@@ -24,6 +24,10 @@ struct Neighborhoods {
     // Whether these are neighbourhoods in `points` of exactly `at` (bit for bit): what a kernel
     // given them in place of its own searches must check.
     bool is_of(std::span<const Point> points, std::span<const Point> at) const;
+    // Throws mfpc::Error (naming `where`) unless these are neighbourhoods in `points` of `at`
+    // reaching at least `needed`: the check of a kernel given them, for `what` it computes.
+    void check_serves(std::span<const Point> points, std::span<const Point> at, float needed, const char* where,
+                      const char* what) const;
     std::span<const std::uint32_t> indices_of(std::size_t center) const
     {
         return std::span<const std::uint32_t>(indices).subspan(offsets[center], offsets[center + 1] - offsets[center]);
