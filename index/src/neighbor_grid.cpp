@@ -15,6 +15,7 @@
 #include "mfpc/core/error.hpp"
 #include "mfpc/core/floor.hpp"
 #include "nearest_candidates.hpp"
+#include "radix_sort.hpp"
 
 namespace mfpc {
 namespace {
@@ -32,34 +33,6 @@ inline float squared_distance(const Point& a, const Point& b)
 
 // Fibonacci hashing: the top bits of the product mix every bit of the key.
 inline std::uint64_t hash_key(std::uint64_t key, int shift) { return (key * 0x9E3779B97F4A7C15ull) >> shift; }
-
-// Stable LSD radix sort of `entries` by bits [low, low + bits) of key(entry), in 11-bit digits.
-template <class Entry, class Key>
-void radix_sort(std::vector<Entry>& entries, int low, int bits, Key&& key)
-{
-    constexpr int digit_bits = 11;
-    constexpr std::size_t buckets = std::size_t(1) << digit_bits;
-    constexpr std::uint64_t digit_mask = buckets - 1;
-    const int passes = (bits + digit_bits - 1) / digit_bits;
-    // The counts of every pass in one read of the entries (a stable pass does not change them),
-    // their chains of increments side by side.
-    std::vector<std::uint32_t> starts(std::size_t(passes) * buckets, 0);
-    for (const Entry& entry : entries) {
-        const std::uint64_t k = key(entry) >> low;
-        for (int p = 0; p < passes; ++p) ++starts[std::size_t(p) * buckets + ((k >> (p * digit_bits)) & digit_mask)];
-    }
-    std::vector<Entry> scratch(entries.size());
-    for (int p = 0; p < passes; ++p) {
-        std::uint32_t* start = starts.data() + std::size_t(p) * buckets;
-        // A digit that every entry shares would move nothing.
-        if (std::find(start, start + buckets, std::uint32_t(entries.size())) != start + buckets) continue;
-        std::uint32_t sum = 0;
-        for (std::size_t d = 0; d < buckets; ++d) sum += std::exchange(start[d], sum);
-        const int shift = low + p * digit_bits;
-        for (const Entry& entry : entries) scratch[start[(key(entry) >> shift) & digit_mask]++] = entry;
-        entries.swap(scratch);
-    }
-}
 
 }  // namespace
 
@@ -100,45 +73,18 @@ NeighborGrid::NeighborGrid(std::span<const Point> points, float cell_size)
     // Points ordered by (cell key, index). The keys are dense: numbered row-major over the
     // occupied extent they take 20-30 bits on a room-sized scene at millimetre cells, so a stable
     // radix sort in 11-bit digits takes 2 or 3 passes, where a comparison sort took 10 times as
-    // long. Stable from index order, it breaks ties by index, whatever the thread count. Key and
-    // index share one 64-bit word when they fit (they do but for huge extents): half the memory
-    // traffic of a pair.
+    // long. Stable from index order, it breaks ties by index, whatever the thread count.
     row_length_ = std::uint64_t(extent.x()) + 1;
     rows_per_slice_ = std::uint64_t(extent.y()) + 1;
     const std::uint64_t cell_count = row_length_ * rows_per_slice_ * (std::uint64_t(extent.z()) + 1);
     const int key_bits = int(std::bit_width(cell_count - 1));
-    const int index_bits = int(std::bit_width(points.size() - 1));
-    std::vector<std::uint32_t> order(points.size());
+    std::vector<std::uint64_t> keys;
+    detail::sort_by_key(
+        points.size(), key_bits, [&](std::size_t i) { return cell_key(cells[i]); }, ordered_indices_, keys);
     // Each cell's points are one run of the sorted order, starting where the key changes.
-    auto mark_cell = [&, previous = ~std::uint64_t(0)](std::size_t i, std::uint64_t key) mutable {
-        if (key == previous) return;
-        cell_begin_.push_back(std::uint32_t(i));
-        previous = key;
-    };
-    if (key_bits + index_bits <= 64) {
-        std::vector<std::uint64_t> packed(points.size());
-        tbb::parallel_for(tbb::blocked_range<std::size_t>(0, points.size(), 4096), [&](const auto& range) {
-            for (std::size_t i = range.begin(); i < range.end(); ++i)
-                packed[i] = (cell_key(cells[i]) << index_bits) | std::uint64_t(i);
-        });
-        radix_sort(packed, index_bits, key_bits, [](std::uint64_t entry) { return entry; });
-        const std::uint64_t index_mask = (std::uint64_t(1) << index_bits) - 1;
-        for (std::size_t i = 0; i < packed.size(); ++i) {
-            order[i] = std::uint32_t(packed[i] & index_mask);
-            mark_cell(i, packed[i] >> index_bits);
-        }
-    } else {
-        std::vector<std::pair<std::uint64_t, std::uint32_t>> pairs(points.size());
-        tbb::parallel_for(tbb::blocked_range<std::size_t>(0, points.size(), 4096), [&](const auto& range) {
-            for (std::size_t i = range.begin(); i < range.end(); ++i) pairs[i] = {cell_key(cells[i]), std::uint32_t(i)};
-        });
-        radix_sort(pairs, 0, key_bits, [](const auto& entry) { return entry.first; });
-        for (std::size_t i = 0; i < pairs.size(); ++i) {
-            order[i] = pairs[i].second;
-            mark_cell(i, pairs[i].first);
-        }
+    for (std::size_t i = 0; i < keys.size(); ++i) {
+        if (i == 0 || keys[i] != keys[i - 1]) cell_begin_.push_back(std::uint32_t(i));
     }
-    ordered_indices_ = std::move(order);
     ordered_points_.resize(points.size());
     tbb::parallel_for(tbb::blocked_range<std::size_t>(0, points.size(), 4096), [&](const auto& range) {
         for (std::size_t i = range.begin(); i < range.end(); ++i) ordered_points_[i] = points[ordered_indices_[i]];

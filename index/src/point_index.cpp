@@ -1,6 +1,7 @@
 #include "mfpc/index/point_index.hpp"
 
 #include <algorithm>
+#include <bit>
 #include <cmath>
 #include <limits>
 #include <mutex>
@@ -9,25 +10,17 @@
 #include <openvdb/openvdb.h>
 #include <openvdb/tools/PointIndexGrid.h>
 #include <tbb/parallel_for.h>
-#include <tbb/parallel_sort.h>
+#include <tbb/parallel_reduce.h>
 
 #include "mfpc/core/error.hpp"
+#include "mfpc/core/floor.hpp"
+#include "radix_sort.hpp"
 
 namespace mfpc {
 
 namespace {
 
-// OpenVDB's point-array concept over our packed float xyz, without a copy.
-struct PointArray {
-    using PosType = openvdb::Vec3R;
-    std::span<const Point> points;
-    std::size_t size() const { return points.size(); }
-    void getPos(std::size_t n, PosType& xyz) const
-    {
-        const Point& p = points[n];
-        xyz = PosType(p.x(), p.y(), p.z());
-    }
-};
+constexpr std::uint64_t leaf_voxels = 512;  // 8 x 8 x 8, OpenVDB's PointIndexGrid leaf
 
 void initialize_openvdb()
 {
@@ -57,53 +50,128 @@ PointIndex::PointIndex(std::span<const Point> points, const PointIndexParams& pa
     // is a multiple of voxel_size, so a whole index voxel then falls in one downsampling voxel.
     grid_->transform = openvdb::math::Transform::createLinearTransform(params.voxel_size);
     grid_->transform->postTranslate(openvdb::Vec3d(0.5 * double(params.voxel_size)));
-    grid_->grid = openvdb::tools::createPointIndexGrid<openvdb::tools::PointIndexGrid>(PointArray{points},
-                                                                                      *grid_->transform);
+    grid_->grid = openvdb::tools::PointIndexGrid::create(openvdb::tools::PointIndexGrid::ValueType(0));
+    grid_->grid->setTransform(grid_->transform);
+    if (points.empty()) return;
+    const std::size_t n = points.size();
+    const tbb::blocked_range<std::size_t> all(0, n, 4096);
 
-    // Flatten the leaves into a table the kernels can walk in parallel without OpenVDB headers.
-    std::vector<const openvdb::tools::PointIndexGrid::TreeType::LeafNodeType*> nodes;
-    nodes.reserve(grid_->grid->tree().leafCount());
-    for (auto leaf = grid_->grid->tree().cbeginLeaf(); leaf; ++leaf) {
-        if (!leaf->indices().empty()) nodes.push_back(leaf.getLeaf());
+    // Each point's voxel as OpenVDB's cell-centred conversion gives it (Coord::round of the
+    // world-to-index map, in double), so the tables and the grid are the ones
+    // tools::createPointIndexGrid builds; one radix sort by (leaf, voxel, index) builds them in
+    // less time and memory than its partitioner.
+    const double scale = double(params.voxel_size);
+    const double translation = 0.5 * scale;
+    const double inverse = 1.0 / scale;
+    const auto voxel_of = [&](const Point& p) {
+        Eigen::Vector3i v;
+        for (int a = 0; a < 3; ++a) v[a] = floor_to<int>((double(p[a]) - translation) * inverse + 0.5);
+        return v;
+    };
+    // The conversion is monotonic, so the extreme voxels are those of the bounding box, and
+    // checking its corners checks every point. Far inside OpenVDB's 32-bit coordinates, so that
+    // leaf origins and query boxes widened by a voxel cannot overflow.
+    struct Extent {
+        Box bounds = bounding_box(std::span<const Point>());
+        bool finite = true;
+    };
+    const Extent extent = tbb::parallel_reduce(
+        all, Extent{},
+        [&](const auto& range, Extent e) {
+            for (std::size_t i = range.begin(); i < range.end(); ++i) {
+                e.finite &= points[i].allFinite();
+                e.bounds.min = e.bounds.min.cwiseMin(points[i]);
+                e.bounds.max = e.bounds.max.cwiseMax(points[i]);
+            }
+            return e;
+        },
+        [](Extent a, const Extent& b) {
+            a.finite &= b.finite;
+            a.bounds.min = a.bounds.min.cwiseMin(b.bounds.min);
+            a.bounds.max = a.bounds.max.cwiseMax(b.bounds.max);
+            return a;
+        });
+    const Box& bounds = extent.bounds;
+    constexpr double coordinate_limit = double(1 << 30);
+    const auto reachable = [&](const Point& p) {
+        return ((p.cast<double>().array() - translation) * inverse + 0.5).abs().maxCoeff() <= coordinate_limit;
+    };
+    if (!extent.finite || !reachable(bounds.min) || !reachable(bounds.max)) {
+        const auto bad = std::find_if(points.begin(), points.end(),
+                                      [&](const Point& p) { return !p.allFinite() || !reachable(p); });
+        throw Error("index", "point " + std::to_string(bad - points.begin()) +
+                                 " is not finite or lies more than 2^30 voxels from the origin");
     }
-    // The tree's own iteration order is fixed for a given set of leaves; sorting by origin makes
-    // the table independent of how the grid was built.
-    std::sort(nodes.begin(), nodes.end(), [](const auto* a, const auto* b) { return a->origin() < b->origin(); });
+    // Leaves numbered row-major over the occupied extent, x slowest: ascending numbers are
+    // ascending origins (OpenVDB's Coord order). A voxel's key is its leaf number, then its offset
+    // in the leaf (OpenVDB's voxel order).
+    const Eigen::Vector3i lo = voxel_of(bounds.min).unaryExpr([](int c) { return c >> 3; });
+    const Eigen::Vector3i hi = voxel_of(bounds.max).unaryExpr([](int c) { return c >> 3; });
+    const std::uint64_t span_y = std::uint64_t(hi.y() - lo.y()) + 1;
+    const std::uint64_t span_z = std::uint64_t(hi.z() - lo.z()) + 1;
+    // Each span is below 2^28 leaves, so span_x * span_y cannot overflow.
+    const std::uint64_t span_xy = (std::uint64_t(hi.x() - lo.x()) + 1) * span_y;
+    if (span_xy > std::numeric_limits<std::uint64_t>::max() / (span_z * leaf_voxels)) {
+        throw Error("index", "the cloud spans too many voxels of " + std::to_string(params.voxel_size) +
+                                 " m to number them in 64 bits; use a larger index voxel");
+    }
+    const std::uint64_t key_count = span_xy * span_z * leaf_voxels;
+    const auto key_of = [&](std::size_t i) {
+        const Eigen::Vector3i v = voxel_of(points[i]);
+        const std::uint64_t leaf = (std::uint64_t((v.x() >> 3) - lo.x()) * span_y + std::uint64_t((v.y() >> 3) - lo.y())) *
+                                       span_z +
+                                   std::uint64_t((v.z() >> 3) - lo.z());
+        return leaf * leaf_voxels + std::uint64_t(((v.x() & 7) << 6) | ((v.y() & 7) << 3) | (v.z() & 7));
+    };
+    std::vector<std::uint64_t> keys;
+    detail::sort_by_key(n, int(std::bit_width(key_count - 1)), key_of, point_order_, keys);
 
-    leaves_.resize(nodes.size());
-    std::uint32_t offset = 0;
-    std::uint32_t voxel_offset = 0;
-    for (std::size_t i = 0; i < nodes.size(); ++i) {
-        leaves_[i].begin = offset;
-        leaves_[i].voxel_begin = voxel_offset;
-        offset += static_cast<std::uint32_t>(nodes[i]->indices().size());
-        voxel_offset += static_cast<std::uint32_t>(nodes[i]->onVoxelCount());
-        leaves_[i].end = offset;
-        leaves_[i].voxel_end = voxel_offset;
+    // Voxels start where the key changes, leaves where key / 512 does. Counted first, so the
+    // tables are allocated once (on a 10-million-point cloud, growing them cost page faults).
+    std::size_t voxel_count = 0;
+    std::size_t leaf_count = 0;
+    for (std::size_t k = 0; k < n; ++k) {
+        voxel_count += k == 0 || keys[k] != keys[k - 1];
+        leaf_count += k == 0 || keys[k] / leaf_voxels != keys[k - 1] / leaf_voxels;
     }
-    if (offset != points.size()) {
-        throw Error("index", "bucketed " + std::to_string(offset) + " of " + std::to_string(points.size()) +
-                                 " points (non-finite coordinates?)");
+    voxels_.resize(voxel_count);
+    std::vector<std::uint32_t> leaf_first_voxel;
+    leaf_first_voxel.reserve(leaf_count + 1);
+    std::size_t voxel_index = 0;
+    for (std::size_t k = 0; k < n; ++k) {
+        if (k > 0 && keys[k] == keys[k - 1]) continue;
+        if (k == 0 || keys[k] / leaf_voxels != keys[k - 1] / leaf_voxels)
+            leaf_first_voxel.push_back(std::uint32_t(voxel_index));
+        voxels_[voxel_index].begin = std::uint32_t(k);
+        if (voxel_index > 0) voxels_[voxel_index - 1].end = std::uint32_t(k);
+        ++voxel_index;
     }
-    point_order_.resize(points.size());
-    ordered_points_.resize(points.size());
-    voxels_.resize(voxel_offset);
-    tbb::parallel_for(std::size_t(0), nodes.size(), [&](std::size_t i) {
-        PointIndexLeaf& leaf = leaves_[i];
+    voxels_.back().end = std::uint32_t(n);
+    leaf_first_voxel.push_back(std::uint32_t(voxels_.size()));
+    leaves_.resize(leaf_first_voxel.size() - 1);
+    ordered_points_.resize(n);
+
+    // Per leaf: the tables, and the OpenVDB leaf node, whose voxel values are the running end of
+    // each voxel's indices within the leaf (what PointIndexLeafNode::getIndices reads).
+    using LeafNode = openvdb::tools::PointIndexGrid::TreeType::LeafNodeType;
+    std::vector<std::unique_ptr<LeafNode>> nodes(leaves_.size());
+    tbb::parallel_for(std::size_t(0), leaves_.size(), [&](std::size_t l) {
+        PointIndexLeaf& leaf = leaves_[l];
+        leaf.voxel_begin = leaf_first_voxel[l];
+        leaf.voxel_end = leaf_first_voxel[l + 1];
+        leaf.begin = voxels_[leaf.voxel_begin].begin;
+        leaf.end = voxels_[leaf.voxel_end - 1].end;
         leaf.bounds = bounding_box(std::span<const Point>());
-        std::uint32_t cursor = leaf.begin;
-        std::uint32_t voxel = leaf.voxel_begin;
-        for (auto value = nodes[i]->cbeginValueOn(); value; ++value, ++voxel) {
-            const openvdb::tools::PointIndexGrid::TreeType::LeafNodeType::ValueType* begin = nullptr;
-            const openvdb::tools::PointIndexGrid::TreeType::LeafNodeType::ValueType* end = nullptr;
-            nodes[i]->getIndices(value.pos(), begin, end);
-            PointIndexVoxel& v = voxels_[voxel];
-            v.begin = cursor;
-            std::uint32_t* out = point_order_.data() + cursor;
-            std::copy(begin, end, out);
-            cursor += static_cast<std::uint32_t>(end - begin);
-            v.end = cursor;
-            std::sort(out, point_order_.data() + cursor);
+        auto node = std::make_unique<LeafNode>();
+        const Eigen::Vector3i first = voxel_of(points[point_order_[leaf.begin]]);
+        node->setOrigin(openvdb::Coord(first.x() & ~7, first.y() & ~7, first.z() & ~7));
+        node->indices().assign(point_order_.begin() + leaf.begin, point_order_.begin() + leaf.end);
+        // Written through the raw buffer: setOffsetOn checks for delayed loading at every call.
+        LeafNode::ValueType* ends = node->buffer().data();
+        LeafNode::NodeMaskType& mask = node->getValueMask();
+        openvdb::Index offset = 0;
+        for (std::uint32_t index = leaf.voxel_begin; index < leaf.voxel_end; ++index) {
+            PointIndexVoxel& v = voxels_[index];
             v.bounds = bounding_box(std::span<const Point>());
             for (std::uint32_t k = v.begin; k < v.end; ++k) {
                 const Point& p = points[point_order_[k]];
@@ -114,8 +182,16 @@ PointIndex::PointIndex(std::span<const Point> points, const PointIndexParams& pa
             }
             leaf.bounds.min = leaf.bounds.min.cwiseMin(v.bounds.min);
             leaf.bounds.max = leaf.bounds.max.cwiseMax(v.bounds.max);
+            const openvdb::Index voxel_offset = openvdb::Index(keys[v.begin] % leaf_voxels);
+            for (; offset < voxel_offset; ++offset) ends[offset] = v.begin - leaf.begin;
+            mask.setOn(offset);
+            ends[offset++] = v.end - leaf.begin;
         }
+        for (; offset < LeafNode::SIZE; ++offset) ends[offset] = leaf.end - leaf.begin;
+        nodes[l] = std::move(node);
     });
+    openvdb::tree::ValueAccessor<openvdb::tools::PointIndexGrid::TreeType> accessor(grid_->grid->tree());
+    for (std::unique_ptr<LeafNode>& node : nodes) accessor.addLeaf(node.release());
 }
 
 PointIndex::PointIndex(const PointCloud& cloud, const PointIndexParams& params) : PointIndex(cloud.points, params)

@@ -3,6 +3,9 @@
 #include <random>
 
 #include <gtest/gtest.h>
+#include <openvdb/openvdb.h>
+#include <openvdb/tools/PointIndexGrid.h>
+#include <tbb/global_control.h>
 
 #include "mfpc/core/error.hpp"
 #include "mfpc/index/nearest_neighbors.hpp"
@@ -59,6 +62,94 @@ TEST(PointIndex, EveryPointOnceInTightLeaves)
     }
     EXPECT_EQ(next_voxel, index.voxels().size());
     EXPECT_EQ(covered, points.size());
+}
+
+// OpenVDB's own builder as the oracle: tools::createPointIndexGrid with the index's transform
+// (voxel (i, j, k) covers [i, i + 1) * voxel) must give the same leaves, voxels and point lists.
+struct PointArray {
+    using PosType = openvdb::Vec3R;
+    const std::vector<Point>* points;
+    std::size_t size() const { return points->size(); }
+    void getPos(std::size_t n, PosType& xyz) const { xyz = PosType((*points)[n].x(), (*points)[n].y(), (*points)[n].z()); }
+};
+
+void expect_openvdb_tables(const std::vector<Point>& points, float voxel)
+{
+    openvdb::initialize();
+    auto transform = openvdb::math::Transform::createLinearTransform(voxel);
+    transform->postTranslate(openvdb::Vec3d(0.5 * double(voxel)));
+    const auto grid =
+        openvdb::tools::createPointIndexGrid<openvdb::tools::PointIndexGrid>(PointArray{&points}, *transform);
+    std::vector<const openvdb::tools::PointIndexGrid::TreeType::LeafNodeType*> nodes;
+    for (auto leaf = grid->tree().cbeginLeaf(); leaf; ++leaf) nodes.push_back(leaf.getLeaf());
+    std::sort(nodes.begin(), nodes.end(), [](const auto* a, const auto* b) { return a->origin() < b->origin(); });
+
+    const PointIndex index(points, {voxel});
+    ASSERT_EQ(index.leaves().size(), nodes.size());
+    for (std::size_t l = 0; l < nodes.size(); ++l) {
+        const PointIndexLeaf& leaf = index.leaves()[l];
+        std::uint32_t v = leaf.voxel_begin;
+        for (auto value = nodes[l]->cbeginValueOn(); value; ++value, ++v) {
+            ASSERT_LT(v, leaf.voxel_end) << "leaf " << l;
+            using Value = openvdb::tools::PointIndexGrid::ValueType;
+            const Value* begin = nullptr;
+            const Value* end = nullptr;
+            nodes[l]->getIndices(value.pos(), begin, end);
+            std::vector<std::uint32_t> expected(begin, end);
+            std::sort(expected.begin(), expected.end());
+            const PointIndexVoxel& ours = index.voxels()[v];
+            const std::vector<std::uint32_t> found(index.point_order().begin() + ours.begin,
+                                                   index.point_order().begin() + ours.end);
+            ASSERT_EQ(found, expected) << "leaf " << l << " voxel offset " << value.pos();
+        }
+        EXPECT_EQ(v, leaf.voxel_end) << "leaf " << l;
+    }
+
+    // The sort cuts its input into blocks by the thread count; being stable, it gives one order.
+    const tbb::global_control one(tbb::global_control::max_allowed_parallelism, 1);
+    const PointIndex serial(points, {voxel});
+    EXPECT_TRUE(std::equal(serial.point_order().begin(), serial.point_order().end(), index.point_order().begin(),
+                           index.point_order().end()));
+}
+
+TEST(PointIndex, TablesMatchOpenVdbBuilder)
+{
+    // Enough points for several sort blocks; a quarter on the 5 cm lattice, so on voxel faces
+    // where the conversion rounds.
+    const auto points = test::random_points(70000, 17);
+    expect_openvdb_tables(points, 0.05f);
+    expect_openvdb_tables(points, 0.013f);
+}
+
+TEST(PointIndex, WideSparseCloudMatchesOpenVdbBuilder)
+{
+    // 10 km x 10 km x 1 km at 1 cm voxels: the (leaf, voxel) key and the point index no longer
+    // share a 64-bit word.
+    std::mt19937 rng(5);
+    std::uniform_real_distribution<float> unit(0.0f, 1.0f);
+    std::vector<Point> points(300);
+    for (Point& p : points) p = Point(1e4f * unit(rng) - 5e3f, 1e4f * unit(rng), 1e3f * unit(rng));
+    expect_openvdb_tables(points, 0.01f);
+}
+
+TEST(PointIndex, RejectsPointsItCannotBucket)
+{
+    auto points = test::random_points(10, 1);
+    points[3].y() = std::numeric_limits<float>::quiet_NaN();
+    EXPECT_THROW(PointIndex(points, {0.01f}), Error);
+    points[3].y() = std::numeric_limits<float>::infinity();
+    EXPECT_THROW(PointIndex(points, {0.01f}), Error);
+    points[3].y() = 1e30f;
+    EXPECT_THROW(PointIndex(points, {0.01f}), Error);
+    // Each coordinate within reach, but too many leaves between them to number.
+    points[3] = Point(-1e6f, -1e6f, -1e6f);
+    points[4] = Point(1e6f, 1e6f, 1e6f);
+    try {
+        const PointIndex index(points, {0.001f});
+        ADD_FAILURE() << "expected an error";
+    } catch (const Error& e) {
+        EXPECT_NE(std::string(e.what()).find("larger index voxel"), std::string::npos) << e.what();
+    }
 }
 
 TEST(PointIndex, BoxAndRadiusQueriesMatchBruteForce)
