@@ -163,6 +163,18 @@ void BM_RealScene_IndexBuild(benchmark::State& state)
     }
 }
 
+// One foveation with no index at hand (what `mfpc recognize` does): the index of the points some
+// outer box covers is built inside, then labels and downsampling.
+void BM_RealScene_OneShot(benchmark::State& state)
+{
+    MFPC_REQUIRE_SCENE(state, scene);
+    tbb::global_control threads(tbb::global_control::max_allowed_parallelism, std::size_t(state.range(0)));
+    for (auto _ : state) {
+        FoveatedCloud result = foveate(scene->cloud, scene->config, FoveationMode::mfpc);
+        benchmark::DoNotOptimize(result.cloud.points.data());
+    }
+}
+
 // N structures over the same part of the scene: the bounding box of the two carton structures cut
 // into N cells (2: 2x1x1, 64: 4x4x4), each cell's structure reaching 25% into its neighbours (so
 // redundancy treatment has overlaps to resolve) with its fovea on the cell's central half. The
@@ -335,6 +347,7 @@ void register_all()
         configure(benchmark::RegisterBenchmark("RealScene/ours_labels/threads", BM_RealScene_OursLabels)->Arg(t));
         configure(benchmark::RegisterBenchmark("RealScene/ours_downsample/threads", BM_RealScene_OursDownsample)->Arg(t));
         configure(benchmark::RegisterBenchmark("RealScene/index_build/threads", BM_RealScene_IndexBuild)->Arg(t));
+        configure(benchmark::RegisterBenchmark("RealScene/one_shot/threads", BM_RealScene_OneShot)->Arg(t));
     }
     configure(benchmark::RegisterBenchmark("RealScene/reference", BM_RealScene_Reference), 5);
     configure(benchmark::RegisterBenchmark("RealScene/reference_labels", BM_RealScene_ReferenceLabels), 5);
@@ -361,6 +374,10 @@ void print_summary(const bench::RecordingReporter& r)
                   "RealScene/ours_labels/threads/1");
     std::printf("real scene, ours on 1 core, with colours: %.3f ms (goal: at most 3 ms)\n",
                 r.time_ms("RealScene/ours/threads/1"));
+    r.print_ratio("real scene, 1 core: reference / ours one-shot (index of the covered points built inside)",
+                  "RealScene/reference", "RealScene/one_shot/threads/1");
+    r.print_ratio("real scene, 1 core: index of the whole scene / ours one-shot", "RealScene/index_build/threads/1",
+                  "RealScene/one_shot/threads/1");
     r.print_ratio("structures, grid: ours 64 / ours 2 (goal: at most 3)", "Structures/ours_grid/64/0",
                   "Structures/ours_grid/2/0");
     r.print_ratio("structures, stacked: ours 64 / ours 2", "Structures/ours_stacked/64/1", "Structures/ours_stacked/2/1");
@@ -376,7 +393,7 @@ void print_summary(const bench::RecordingReporter& r)
     }
     std::printf("\n== thread scaling (efficiency = speedup / threads) ==\n");
     for (const char* name : {"RealScene/ours", "RealScene/ours_xyz", "RealScene/ours_labels", "RealScene/ours_downsample",
-                             "RealScene/index_build", "Large/ours", "Large/index_build"}) {
+                             "RealScene/index_build", "RealScene/one_shot", "Large/ours", "Large/index_build"}) {
         const double one = r.time_ms(std::string(name) + "/threads/1");
         for (int t : thread_counts()) {
             const double tt = r.time_ms(std::string(name) + "/threads/" + std::to_string(t));

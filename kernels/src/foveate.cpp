@@ -717,21 +717,63 @@ FoveatedCloud downsample_regions(const PointCloud& cloud, const FoveationRegions
     return result;
 }
 
+namespace {
+
+FoveatedCloud unfoveated(const PointCloud& cloud)
+{
+    FoveatedCloud result;
+    result.cloud = cloud;
+    result.labels.assign(cloud.size(), RegionLabel{});
+    result.points_before_downsampling = cloud.size();
+    return result;
+}
+
+}  // namespace
+
 FoveatedCloud foveate(const PointCloud& cloud, const PointIndex& index, const FoveationConfig& config,
                       FoveationMode mode, int single_structure)
 {
     if (index.points().data() != cloud.points.data() || index.points().size() != cloud.points.size()) {
         throw Error("foveation", "the index was not built over this cloud");
     }
-    if (mode == FoveationMode::none) {
-        FoveatedCloud result;
-        result.cloud = cloud;
-        result.labels.assign(cloud.size(), RegionLabel{});
-        result.points_before_downsampling = cloud.size();
-        return result;
-    }
+    if (mode == FoveationMode::none) return unfoveated(cloud);
     const FoveationRegions regions = foveation_regions(index, config.structures, mode, single_structure);
     return downsample_regions(cloud, regions, config.structures, config.downsample);
+}
+
+FoveatedCloud foveate(const PointCloud& cloud, const FoveationConfig& config, FoveationMode mode,
+                      int single_structure)
+{
+    if (mode == FoveationMode::none) return unfoveated(cloud);
+    check_structures(config.structures);
+    // select() trusts the attribute sizes (the indexed path finds a mismatch in building the index).
+    check_cloud(cloud, "foveation");
+    // Only points inside some outer box can belong to a region. Taken in ascending order, they
+    // keep their relative order in the index (leaf, voxel, then point), so labels, runs and
+    // downsampling see the same points in the same order as over an index of the whole cloud.
+    std::vector<Box> outer_boxes;
+    for (const FoveatedStructure& structure : config.structures) outer_boxes.push_back(structure.level_box(0));
+    // Per block of the cloud, its covered points; the blocks joined in order. The faces are
+    // compared without branches: points near them would mispredict short-circuit tests.
+    constexpr std::size_t block = 16384;
+    std::vector<std::vector<std::uint32_t>> block_covered((cloud.size() + block - 1) / block);
+    tbb::parallel_for(std::size_t(0), block_covered.size(), [&](std::size_t b) {
+        for (std::size_t i = b * block, end = std::min(cloud.size(), i + block); i < end; ++i) {
+            const Point& p = cloud.points[i];
+            bool inside = false;
+            for (const Box& box : outer_boxes) {
+                inside |= (p.x() >= box.min.x()) & (p.x() <= box.max.x()) & (p.y() >= box.min.y()) &
+                          (p.y() <= box.max.y()) & (p.z() >= box.min.z()) & (p.z() <= box.max.z());
+            }
+            if (inside) block_covered[b].push_back(std::uint32_t(i));
+        }
+    });
+    std::vector<std::uint32_t> covered;
+    for (const auto& part : block_covered) covered.insert(covered.end(), part.begin(), part.end());
+    const PointCloud part = select(cloud, covered);
+    const PointIndex index(part);
+    // select() kept each point's source position, which is what the output reports.
+    return foveate(part, index, config, mode, single_structure);
 }
 
 }  // namespace mfpc

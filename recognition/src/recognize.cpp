@@ -6,7 +6,6 @@
 #include "mfpc/core/camera.hpp"
 #include "mfpc/core/error.hpp"
 #include "mfpc/index/neighbor_grid.hpp"
-#include "mfpc/index/point_index.hpp"
 #include "mfpc/kernels/foveate.hpp"
 #include "mfpc/kernels/uniform_sampling.hpp"
 #include "mfpc/recognition/verification.hpp"
@@ -37,8 +36,7 @@ RecognitionResult recognize(const Model& model, const PointCloud& scene, const R
     const PointCloud* used = &scene;
     if (foveation.config != nullptr && foveation.mode != FoveationMode::none) {
         const auto t = Clock::now();
-        const PointIndex index(scene);
-        foveated = foveate(scene, index, *foveation.config, foveation.mode, foveation.single_structure);
+        foveated = foveate(scene, *foveation.config, foveation.mode, foveation.single_structure);
         used = &foveated.cloud;
         result.timings.foveate = elapsed_ms(t);
     }

@@ -218,6 +218,60 @@ TEST(Foveate, BitIdenticalAtAnyThreadCount)
     }
 }
 
+void expect_same_foveation(const FoveatedCloud& a, const FoveatedCloud& b, const std::string& what)
+{
+    EXPECT_EQ(a.cloud.points, b.cloud.points) << what;
+    EXPECT_EQ(a.cloud.source_index, b.cloud.source_index) << what;
+    EXPECT_EQ(a.cloud.colors, b.cloud.colors) << what;
+    EXPECT_EQ(a.cloud.normals, b.cloud.normals) << what;
+    EXPECT_EQ(a.labels, b.labels) << what;
+    EXPECT_EQ(a.points_before_downsampling, b.points_before_downsampling) << what;
+    EXPECT_EQ(a.redundant_points, b.redundant_points) << what;
+    ASSERT_EQ(a.regions.size(), b.regions.size()) << what;
+    for (std::size_t r = 0; r < a.regions.size(); ++r) {
+        EXPECT_EQ(a.regions[r].points_before, b.regions[r].points_before) << what << " region " << r;
+        EXPECT_EQ(a.regions[r].points_after, b.regions[r].points_after) << what << " region " << r;
+    }
+}
+
+// Indexing only the points some outer box covers changes nothing in the result, for every mode
+// and downsampling, on coloured clouds with normals whose structures cover parts of the cloud.
+TEST(Foveate, OneShotEqualsFoveationOverAWholeIndex)
+{
+    PointCloud cloud;
+    cloud.points = test::random_points(40000, 21);
+    cloud.width = std::uint32_t(cloud.size());
+    std::mt19937 rng(22);
+    std::normal_distribution<float> gauss;
+    for (std::size_t i = 0; i < cloud.size(); ++i) {
+        cloud.colors.push_back({std::uint8_t(i * 7), std::uint8_t(i * 13), std::uint8_t(i * 31)});
+        cloud.normals.push_back(Point(gauss(rng), gauss(rng), gauss(rng)).normalized());
+    }
+    for (const std::uint32_t seed : {23u, 24u, 25u}) {
+        FoveationConfig config;
+        config.structures = random_structures(seed, int(seed % 4) + 1, 3);
+        const PointIndex index(cloud);  // default voxel, as the one-shot index
+        for (const Downsample downsample : {Downsample::voxel, Downsample::uniform}) {
+            config.downsample = downsample;
+            for (const FoveationMode mode : {FoveationMode::mfpc, FoveationMode::raw, FoveationMode::single}) {
+                const std::string what = "seed " + std::to_string(seed) + " " + to_string(mode) + " " +
+                                         to_string(downsample);
+                expect_same_foveation(foveate(cloud, config, mode), foveate(cloud, index, config, mode), what);
+            }
+        }
+    }
+    FoveationConfig config;
+    config.structures = random_structures(26, 2, 3);
+    EXPECT_THROW(foveate(cloud, config, FoveationMode::single, 2), Error);
+    config.structures[1].levels = 2;
+    EXPECT_THROW(foveate(cloud, config, FoveationMode::mfpc), Error);
+    config.structures[1].levels = 3;
+    PointCloud short_colours = cloud;
+    short_colours.colors.resize(10);
+    EXPECT_THROW(foveate(short_colours, config, FoveationMode::mfpc), Error);
+    expect_same_foveation(foveate(cloud, config, FoveationMode::none), foveate(cloud, PointIndex(cloud), config, FoveationMode::none), "none");
+}
+
 TEST(Foveate, PointsExactlyOnBoxFaces)
 {
     FoveatedStructure s;
@@ -337,6 +391,7 @@ TEST(Foveate, RealSceneMatchesReference)
 
     const FoveatedCloud result = downsample_regions(cloud, treated, config.structures, config.downsample);
     EXPECT_LT(result.cloud.size(), treated.members.size());
+    expect_same_foveation(foveate(cloud, config, FoveationMode::mfpc), result, "one-shot");
     // Every kept point's source position is a pixel of the 640x480 scan.
     for (std::uint32_t source : result.cloud.source_index) EXPECT_LT(source, 640u * 480u);
 

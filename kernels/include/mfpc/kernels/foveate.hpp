@@ -100,4 +100,14 @@ FoveatedCloud downsample_regions(const PointCloud& cloud, const FoveationRegions
 FoveatedCloud foveate(const PointCloud& cloud, const PointIndex& index, const FoveationConfig& config,
                       FoveationMode mode, int single_structure = 0);
 
+// The same for one foveation of a cloud with no index at hand: indexes only the points inside
+// some outer box (the others belong to no region), a fraction of the cost of indexing the whole
+// cloud when the structures cover a small part of it. The result is that of foveate() over a
+// default PointIndex of the whole cloud: the covered points keep their order in it, and how
+// their centroid sums are grouped does not matter (float coordinates sum exactly in double, but
+// for ones within about 1e-9 of zero beside larger ones). Reuse an index instead when foveating
+// one cloud several times.
+FoveatedCloud foveate(const PointCloud& cloud, const FoveationConfig& config, FoveationMode mode,
+                      int single_structure = 0);
+
 }  // namespace mfpc
