@@ -751,21 +751,27 @@ FoveatedCloud foveate(const PointCloud& cloud, const FoveationConfig& config, Fo
     // Only points inside some outer box can belong to a region. Taken in ascending order, they
     // keep their relative order in the index (leaf, voxel, then point), so labels, runs and
     // downsampling see the same points in the same order as over an index of the whole cloud.
-    std::vector<Box> outer_boxes;
-    for (const FoveatedStructure& structure : config.structures) outer_boxes.push_back(structure.level_box(0));
-    // Per block of the cloud, its covered points; the blocks joined in order. The faces are
-    // compared without branches: points near them would mispredict short-circuit tests.
+    // Per block of the cloud, its covered points; the blocks joined in order. The three axes are
+    // compared at once, as in LevelFaces: scalar compares took twice the time.
+    std::vector<AxisLanes> lower, upper;
+    for (const FoveatedStructure& structure : config.structures) {
+        const Box box = structure.level_box(0);
+        lower.push_back(axis_lanes(box.min));
+        upper.push_back(axis_lanes(box.max));
+    }
     constexpr std::size_t block = 16384;
     std::vector<std::vector<std::uint32_t>> block_covered((cloud.size() + block - 1) / block);
     tbb::parallel_for(std::size_t(0), block_covered.size(), [&](std::size_t b) {
         for (std::size_t i = b * block, end = std::min(cloud.size(), i + block); i < end; ++i) {
-            const Point& p = cloud.points[i];
-            bool inside = false;
-            for (const Box& box : outer_boxes) {
-                inside |= (p.x() >= box.min.x()) & (p.x() <= box.max.x()) & (p.y() >= box.min.y()) &
-                          (p.y() <= box.max.y()) & (p.z() >= box.min.z()) & (p.z() <= box.max.z());
+            const AxisLanes p = axis_lanes(cloud.points[i]);
+            AxisCounts inside{};
+            for (std::size_t s = 0; s < lower.size(); ++s) {
+                // Lane 0 ends up holding all three axes' verdicts (reading lanes one by one
+                // compiled to branches).
+                const AxisCounts in = (p >= lower[s]) & (p <= upper[s]);
+                inside |= in & __builtin_shufflevector(in, in, 1, 2, 0, 3) & __builtin_shufflevector(in, in, 2, 0, 1, 3);
             }
-            if (inside) block_covered[b].push_back(std::uint32_t(i));
+            if (inside[0]) block_covered[b].push_back(std::uint32_t(i));
         }
     });
     std::vector<std::uint32_t> covered;
