@@ -63,10 +63,13 @@ PointIndex::PointIndex(std::span<const Point> points, const PointIndexParams& pa
     const double scale = double(params.voxel_size);
     const double translation = 0.5 * scale;
     const double inverse = 1.0 / scale;
+    // Before the floor: Coord::round is floor(x + 0.5).
+    const auto unfloored = [&](const Point& p) {
+        return ((p.cast<double>().array() - translation) * inverse + 0.5).eval();
+    };
     const auto voxel_of = [&](const Point& p) {
-        Eigen::Vector3i v;
-        for (int a = 0; a < 3; ++a) v[a] = floor_to<int>((double(p[a]) - translation) * inverse + 0.5);
-        return v;
+        const Eigen::Array3d u = unfloored(p);
+        return Eigen::Vector3i(floor_to<int>(u.x()), floor_to<int>(u.y()), floor_to<int>(u.z()));
     };
     // The conversion is monotonic, so the extreme voxels are those of the bounding box, and
     // checking its corners checks every point. Far inside OpenVDB's 32-bit coordinates, so that
@@ -94,7 +97,7 @@ PointIndex::PointIndex(std::span<const Point> points, const PointIndexParams& pa
     const Box& bounds = extent.bounds;
     constexpr double coordinate_limit = double(1 << 30);
     const auto reachable = [&](const Point& p) {
-        return ((p.cast<double>().array() - translation) * inverse + 0.5).abs().maxCoeff() <= coordinate_limit;
+        return unfloored(p).abs().maxCoeff() <= coordinate_limit;
     };
     if (!extent.finite || !reachable(bounds.min) || !reachable(bounds.max)) {
         const auto bad = std::find_if(points.begin(), points.end(),
@@ -126,17 +129,13 @@ PointIndex::PointIndex(std::span<const Point> points, const PointIndexParams& pa
     std::vector<std::uint64_t> keys;
     detail::sort_by_key(n, int(std::bit_width(key_count - 1)), key_of, point_order_, keys);
 
-    // Voxels start where the key changes, leaves where key / 512 does. Counted first, so the
-    // tables are allocated once (on a 10-million-point cloud, growing them cost page faults).
+    // Voxels start where the key changes, leaves where key / 512 does. The voxels are counted
+    // first, so their table is allocated once (on a 10-million-point cloud, growing it cost page
+    // faults).
     std::size_t voxel_count = 0;
-    std::size_t leaf_count = 0;
-    for (std::size_t k = 0; k < n; ++k) {
-        voxel_count += k == 0 || keys[k] != keys[k - 1];
-        leaf_count += k == 0 || keys[k] / leaf_voxels != keys[k - 1] / leaf_voxels;
-    }
+    for (std::size_t k = 0; k < n; ++k) voxel_count += k == 0 || keys[k] != keys[k - 1];
     voxels_.resize(voxel_count);
     std::vector<std::uint32_t> leaf_first_voxel;
-    leaf_first_voxel.reserve(leaf_count + 1);
     std::size_t voxel_index = 0;
     for (std::size_t k = 0; k < n; ++k) {
         if (k > 0 && keys[k] == keys[k - 1]) continue;

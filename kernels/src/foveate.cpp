@@ -108,6 +108,19 @@ public:
         return smallest_axis(lower_in < upper_in ? lower_in : upper_in) - 1;
     }
 
+    // Whether some structure's outer box (closed) holds p. Lane 0 gathers the three axes'
+    // verdicts: read lane by lane, the compares compiled to branches and took twice the time.
+    bool covers(const Point& p) const
+    {
+        const AxisLanes x = axis_lanes(p);
+        AxisCounts inside{};
+        for (std::size_t box = 0; box < lower_.size(); box += std::size_t(boxes_)) {
+            const AxisCounts in = (x >= lower_[box]) & (x <= upper_[box]);
+            inside |= in & __builtin_shufflevector(in, in, 1, 2, 0, 3) & __builtin_shufflevector(in, in, 2, 0, 1, 3);
+        }
+        return inside[0] != 0;
+    }
+
 private:
     const AxisLanes* lower_faces(int structure) const { return &lower_[std::size_t(structure) * std::size_t(boxes_)]; }
     const AxisLanes* upper_faces(int structure) const { return &upper_[std::size_t(structure) * std::size_t(boxes_)]; }
@@ -751,28 +764,13 @@ FoveatedCloud foveate(const PointCloud& cloud, const FoveationConfig& config, Fo
     // Only points inside some outer box can belong to a region. Taken in ascending order, they
     // keep their relative order in the index (leaf, voxel, then point), so labels, runs and
     // downsampling see the same points in the same order as over an index of the whole cloud.
-    // Per block of the cloud, its covered points; the blocks joined in order. The three axes are
-    // compared at once, as in LevelFaces: scalar compares took twice the time.
-    std::vector<AxisLanes> lower, upper;
-    for (const FoveatedStructure& structure : config.structures) {
-        const Box box = structure.level_box(0);
-        lower.push_back(axis_lanes(box.min));
-        upper.push_back(axis_lanes(box.max));
-    }
+    // Per block of the cloud, its covered points; the blocks joined in order.
+    const LevelFaces faces(config.structures);
     constexpr std::size_t block = 16384;
     std::vector<std::vector<std::uint32_t>> block_covered((cloud.size() + block - 1) / block);
     tbb::parallel_for(std::size_t(0), block_covered.size(), [&](std::size_t b) {
-        for (std::size_t i = b * block, end = std::min(cloud.size(), i + block); i < end; ++i) {
-            const AxisLanes p = axis_lanes(cloud.points[i]);
-            AxisCounts inside{};
-            for (std::size_t s = 0; s < lower.size(); ++s) {
-                // Lane 0 ends up holding all three axes' verdicts (reading lanes one by one
-                // compiled to branches).
-                const AxisCounts in = (p >= lower[s]) & (p <= upper[s]);
-                inside |= in & __builtin_shufflevector(in, in, 1, 2, 0, 3) & __builtin_shufflevector(in, in, 2, 0, 1, 3);
-            }
-            if (inside[0]) block_covered[b].push_back(std::uint32_t(i));
-        }
+        for (std::size_t i = b * block, end = std::min(cloud.size(), i + block); i < end; ++i)
+            if (faces.covers(cloud.points[i])) block_covered[b].push_back(std::uint32_t(i));
     });
     std::vector<std::uint32_t> covered;
     for (const auto& part : block_covered) covered.insert(covered.end(), part.begin(), part.end());
