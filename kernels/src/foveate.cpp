@@ -235,7 +235,8 @@ std::vector<Emitted> label_runs(const PointIndex& index, const RegionTable& tabl
         return any_mixed;
     };
     // Appends a run, or extends the chunk's last run when it is of the same kind and region and
-    // ends where this one begins (the index order is contiguous within and across voxels).
+    // ends where this one begins: whole voxels across voxels (the index order is contiguous),
+    // points tested one by one within their voxel (which the run names, for downsampling).
     auto emit = [](Emitted& out, std::uint16_t region, const RegionRun& run) {
         if (!out.runs.empty()) {
             RegionRun& last = out.runs.back();
@@ -262,7 +263,8 @@ std::vector<Emitted> label_runs(const PointIndex& index, const RegionTable& tabl
         out.coverage.covered_points += end - begin;
         out.coverage.coverage_pairs += std::size_t(end - begin) * reach.size();
     };
-    auto emit_each = [&](const std::vector<Reach>& reach, const PointIndexVoxel& voxel, Emitted& out) {
+    auto emit_each = [&](const std::vector<Reach>& reach, std::uint32_t v, Emitted& out) {
+        const PointIndexVoxel& voxel = voxels[v];
         for (std::uint32_t k = voxel.begin; k < voxel.end; ++k) {
             std::uint16_t best = no_region;
             std::size_t covering = 0;
@@ -275,7 +277,7 @@ std::vector<Emitted> label_runs(const PointIndex& index, const RegionTable& tabl
             if (covering == 0) continue;
             out.coverage.covered_points += 1;
             out.coverage.coverage_pairs += covering;
-            emit(out, table.by_rank[best], RegionRun{k, k + 1, 0, 0});
+            emit(out, table.by_rank[best], RegionRun{k, k + 1, v, v});
         }
     };
 
@@ -299,7 +301,7 @@ std::vector<Emitted> label_runs(const PointIndex& index, const RegionTable& tabl
                 const bool voxel_mixed = narrow(leaf_reach, voxels[v].bounds, voxel_reach);
                 if (voxel_reach.empty()) continue;
                 if (voxel_mixed) {
-                    emit_each(voxel_reach, voxels[v], out);
+                    emit_each(voxel_reach, v, out);
                 } else {
                     emit_whole(voxel_reach, v, v + 1, out);
                 }
@@ -517,14 +519,17 @@ RegionOutput downsample_region(const PointCloud& cloud, const RegionMembers& reg
 
     // The voxel of a point, relative to the box's lowest voxel; a member outside the box (regions
     // not made by foveation_regions) is an error, not an out-of-range write.
+    auto unchecked_voxel = [&](const Point& p) {
+        return Eigen::Matrix<std::int64_t, 3, 1>(voxel_of(p.x(), inverse) - lowest[0], voxel_of(p.y(), inverse) - lowest[1],
+                                                 voxel_of(p.z(), inverse) - lowest[2]);
+    };
+    auto in_box = [&](const Eigen::Matrix<std::int64_t, 3, 1>& v) {
+        return std::uint64_t(v[0]) < std::uint64_t(extent[0]) && std::uint64_t(v[1]) < std::uint64_t(extent[1]) &&
+               std::uint64_t(v[2]) < std::uint64_t(extent[2]);
+    };
     auto voxel = [&](const Point& p) {
-        const Eigen::Matrix<std::int64_t, 3, 1> v(voxel_of(p.x(), inverse) - lowest[0],
-                                                  voxel_of(p.y(), inverse) - lowest[1],
-                                                  voxel_of(p.z(), inverse) - lowest[2]);
-        if (std::uint64_t(v[0]) >= std::uint64_t(extent[0]) || std::uint64_t(v[1]) >= std::uint64_t(extent[1]) ||
-            std::uint64_t(v[2]) >= std::uint64_t(extent[2])) {
-            throw Error(where(), "a member lies outside the region's box");
-        }
+        const auto v = unchecked_voxel(p);
+        if (!in_box(v)) throw Error(where(), "a member lies outside the region's box");
         return v;
     };
 
@@ -585,8 +590,15 @@ RegionOutput downsample_region(const PointCloud& cloud, const RegionMembers& reg
         if (is_new) voxels.push_back({Eigen::Vector3d::Zero(), 0, first});
         return slot;
     };
-    auto add_point = [&](std::uint32_t point, const Point& p) {
-        const std::uint32_t slot = slot_for(voxel(p), point);
+    // Whether p, known to lie in voxel v or above it on every axis, lies in v: below its upper
+    // faces, compared in double where the floor would be taken (v + lowest + 1 is exact there).
+    // Three compares where the voxel of p would take three floors.
+    auto in_voxel = [&](const Point& p, const Eigen::Matrix<std::int64_t, 3, 1>& v) {
+        return double(p.x()) * inverse < double(v[0] + lowest[0] + 1) &&
+               double(p.y()) * inverse < double(v[1] + lowest[1] + 1) &&
+               double(p.z()) * inverse < double(v[2] + lowest[2] + 1);
+    };
+    auto add_to = [&](std::uint32_t slot, std::uint32_t point, const Point& p) {
         Sum& sum = voxels[slot];
         sum.xyz += p.cast<double>();
         ++sum.count;
@@ -594,6 +606,7 @@ RegionOutput downsample_region(const PointCloud& cloud, const RegionMembers& reg
         if (colors) add_color(sum, point);
         if (normals) slot_of.push_back(slot);
     };
+    auto add_point = [&](std::uint32_t point, const Point& p) { add_to(slot_for(voxel(p), point), point, p); };
     if (region.runs.empty()) {
         region.for_each(cloud, add_point);
     } else {
@@ -605,7 +618,23 @@ RegionOutput downsample_region(const PointCloud& cloud, const RegionMembers& reg
                                     : std::span<const std::array<std::uint64_t, 3>>();
         for (const RegionRun& run : region.runs) {
             if (!run.whole_voxels()) {
-                for (std::uint32_t k = run.begin; k < run.end; ++k) add_point(order[k], points[k]);
+                // Some points of one index voxel (foveation_regions names it; a run that is not
+                // within the voxel it names is taken point by point). When the voxel's bounds fall
+                // in one downsampling voxel, so do these points: one lookup for all of them. The
+                // voxel straddles a box face, so its bounds may leave the region's box; then the
+                // points in the box lie in another voxel than the bounds' corner.
+                const std::uint32_t iv = run.voxel_begin;
+                std::uint32_t slot = detail::VoxelSlots::none;
+                if (iv < index_voxels.size() && index_voxels[iv].begin <= run.begin && run.end <= index_voxels[iv].end) {
+                    const Box& bounds = index_voxels[iv].bounds;
+                    const auto v = unchecked_voxel(bounds.min);
+                    if (in_box(v) && in_voxel(bounds.max, v)) slot = slot_for(v, order[run.begin]);
+                }
+                if (slot == detail::VoxelSlots::none) {
+                    for (std::uint32_t k = run.begin; k < run.end; ++k) add_point(order[k], points[k]);
+                    continue;
+                }
+                for (std::uint32_t k = run.begin; k < run.end; ++k) add_to(slot, order[k], points[k]);
                 continue;
             }
             for (std::uint32_t iv = run.voxel_begin; iv < run.voxel_end; ++iv) {
@@ -613,7 +642,7 @@ RegionOutput downsample_region(const PointCloud& cloud, const RegionMembers& reg
                 // A whole index voxel whose tight bounds fall in one downsampling voxel: one lookup
                 // for all its points (ascending within the voxel, so the first is the lowest).
                 const auto v = voxel(index_voxel.bounds.min);
-                if (v != voxel(index_voxel.bounds.max)) {
+                if (!in_voxel(index_voxel.bounds.max, v)) {
                     for (std::uint32_t k = index_voxel.begin; k < index_voxel.end; ++k) add_point(order[k], points[k]);
                     continue;
                 }

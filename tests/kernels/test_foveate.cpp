@@ -272,6 +272,44 @@ TEST(Foveate, OneShotEqualsFoveationOverAWholeIndex)
     expect_same_foveation(foveate(cloud, config, FoveationMode::none), foveate(cloud, PointIndex(cloud), config, FoveationMode::none), "none");
 }
 
+// Downsampling takes the points of a run tested one by one with one voxel lookup when the index
+// voxel the run names falls in one downsampling voxel. Runs that name a voxel not holding them
+// (regions edited by hand) are taken point by point instead: the same sums in the same order.
+TEST(Foveate, PointRunsNamingAnotherVoxelAreTakenPointByPoint)
+{
+    PointCloud cloud;
+    cloud.points = test::random_points(30000, 31);
+    cloud.width = std::uint32_t(cloud.size());
+    for (std::size_t i = 0; i < cloud.size(); ++i) {
+        cloud.colors.push_back({std::uint8_t(i * 5), std::uint8_t(i * 11), std::uint8_t(i * 29)});
+        cloud.normals.push_back(Point(float(i % 7) - 3.0f, 1.0f, float(i % 5)).normalized());
+    }
+    // Index voxels of several points, so some straddle a face and their points come as point
+    // runs; densities that are multiples of them, so such a run can fall in one voxel.
+    auto structures = random_structures(32, 3, 3);
+    for (FoveatedStructure& structure : structures) {
+        structure.density_outer = 0.4f;
+        structure.density_fovea = 0.2f;
+    }
+    const PointIndex index(cloud, {0.1f});
+    const FoveationRegions regions = foveation_regions(index, structures, FoveationMode::mfpc);
+    for (const std::uint32_t wrong : {0u, std::uint32_t(index.voxels().size()), ~0u}) {
+        FoveationRegions edited = regions;
+        std::size_t point_runs = 0;
+        for (RegionRun& run : edited.runs) {
+            if (run.whole_voxels()) continue;
+            run.voxel_begin = run.voxel_end = wrong;
+            ++point_runs;
+        }
+        ASSERT_GT(point_runs, 0u);
+        for (const Downsample mode : {Downsample::voxel, Downsample::uniform}) {
+            expect_same_foveation(downsample_regions(cloud, edited, structures, mode),
+                                  downsample_regions(cloud, regions, structures, mode),
+                                  "voxel " + std::to_string(wrong) + " " + to_string(mode));
+        }
+    }
+}
+
 TEST(Foveate, PointsExactlyOnBoxFaces)
 {
     FoveatedStructure s;
@@ -395,8 +433,8 @@ TEST(Foveate, RealSceneMatchesReference)
     // Every kept point's source position is a pixel of the 640x480 scan.
     for (std::uint32_t source : result.cloud.source_index) EXPECT_LT(source, 640u * 480u);
 
-    // Runs are whole voxels (contiguous, their points exactly) or points tested one by one (possibly
-    // across voxels), and together they are the members.
+    // Runs are whole voxels (contiguous, their points exactly) or points tested one by one within
+    // the voxel they name, and together they are the members.
     const auto voxels = index.voxels();
     const auto order = index.point_order();
     std::size_t whole = 0;
@@ -408,6 +446,12 @@ TEST(Foveate, RealSceneMatchesReference)
                 ++whole;
                 EXPECT_EQ(run.begin, voxels[run.voxel_begin].begin);
                 EXPECT_EQ(run.end, voxels[run.voxel_end - 1].end);
+            } else {
+                ASSERT_EQ(run.voxel_begin, run.voxel_end);
+                ASSERT_LT(run.voxel_begin, voxels.size());
+                EXPECT_LE(voxels[run.voxel_begin].begin, run.begin);
+                EXPECT_LE(run.end, voxels[run.voxel_begin].end);
+                EXPECT_LT(run.begin, run.end);
             }
             from_runs.insert(from_runs.end(), order.begin() + run.begin, order.begin() + run.end);
         }

@@ -13,8 +13,8 @@ namespace mfpc {
 
 // A stretch of the index's point order (positions begin..end of PointIndex::point_order()) that
 // lies in one region. When the stretch is made of whole index voxels, they are voxel_begin ..
-// voxel_end of PointIndex::voxels(); otherwise that range is empty and the points are tested one
-// by one (such a stretch may still cross voxel boundaries).
+// voxel_end of PointIndex::voxels(); otherwise its points were tested one by one, and they are
+// some of the points of one index voxel, voxel_begin == voxel_end.
 struct RegionRun {
     std::uint32_t begin = 0;
     std::uint32_t end = 0;
