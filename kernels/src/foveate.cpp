@@ -517,19 +517,25 @@ RegionOutput downsample_region(const PointCloud& cloud, const RegionMembers& reg
     }
     detail::VoxelSlots slots(extent, members.size());
 
-    // The voxel of a point, relative to the box's lowest voxel; a member outside the box (regions
-    // not made by foveation_regions) is an error, not an out-of-range write.
-    auto unchecked_voxel = [&](const Point& p) {
-        return Eigen::Matrix<std::int64_t, 3, 1>(voxel_of(p.x(), inverse) - lowest[0], voxel_of(p.y(), inverse) - lowest[1],
-                                                 voxel_of(p.z(), inverse) - lowest[2]);
+    // The voxel of p relative to the box's lowest voxel, when p lies in the box's voxels. Checked
+    // on the products, before the floors: floor(q) lies in [lowest, lowest + extent) exactly when
+    // q does (integer bounds), and no far point (nor NaN) reaches an overflowing conversion.
+    const Eigen::Array3d low_face = lowest.cast<double>();
+    const Eigen::Array3d high_face = (lowest + extent).cast<double>();
+    auto voxel_in_box = [&](const Point& p, Eigen::Matrix<std::int64_t, 3, 1>& v) {
+        const Eigen::Array3d q = p.cast<double>().array() * inverse;
+        if (!(q[0] >= low_face[0] && q[1] >= low_face[1] && q[2] >= low_face[2] && q[0] < high_face[0] &&
+              q[1] < high_face[1] && q[2] < high_face[2]))
+            return false;
+        v = Eigen::Matrix<std::int64_t, 3, 1>(floor_to<std::int64_t>(q[0]) - lowest[0], floor_to<std::int64_t>(q[1]) - lowest[1],
+                                              floor_to<std::int64_t>(q[2]) - lowest[2]);
+        return true;
     };
-    auto in_box = [&](const Eigen::Matrix<std::int64_t, 3, 1>& v) {
-        return std::uint64_t(v[0]) < std::uint64_t(extent[0]) && std::uint64_t(v[1]) < std::uint64_t(extent[1]) &&
-               std::uint64_t(v[2]) < std::uint64_t(extent[2]);
-    };
+    // A member outside the box (regions not made by foveation_regions) is an error, not an
+    // out-of-range write.
     auto voxel = [&](const Point& p) {
-        const auto v = unchecked_voxel(p);
-        if (!in_box(v)) throw Error(where(), "a member lies outside the region's box");
+        Eigen::Matrix<std::int64_t, 3, 1> v;
+        if (!voxel_in_box(p, v)) throw Error(where(), "a member lies outside the region's box");
         return v;
     };
 
@@ -618,17 +624,18 @@ RegionOutput downsample_region(const PointCloud& cloud, const RegionMembers& reg
                                     : std::span<const std::array<std::uint64_t, 3>>();
         for (const RegionRun& run : region.runs) {
             if (!run.whole_voxels()) {
-                // Some points of one index voxel (foveation_regions names it; a run that is not
-                // within the voxel it names is taken point by point). When the voxel's bounds fall
-                // in one downsampling voxel, so do these points: one lookup for all of them. The
-                // voxel straddles a box face, so its bounds may leave the region's box; then the
-                // points in the box lie in another voxel than the bounds' corner.
+                // Some points of one index voxel (foveation_regions names it; a run that is empty
+                // or not within the voxel it names is taken point by point). When the voxel's
+                // bounds fall in one downsampling voxel, so do these points: one lookup for all of
+                // them. The voxel straddles a box face, so its bounds may leave the box's voxels;
+                // then they span more than one voxel, and the points go one by one.
                 const std::uint32_t iv = run.voxel_begin;
                 std::uint32_t slot = detail::VoxelSlots::none;
-                if (iv < index_voxels.size() && index_voxels[iv].begin <= run.begin && run.end <= index_voxels[iv].end) {
+                if (run.begin < run.end && iv < index_voxels.size() && index_voxels[iv].begin <= run.begin &&
+                    run.end <= index_voxels[iv].end) {
                     const Box& bounds = index_voxels[iv].bounds;
-                    const auto v = unchecked_voxel(bounds.min);
-                    if (in_box(v) && in_voxel(bounds.max, v)) slot = slot_for(v, order[run.begin]);
+                    Eigen::Matrix<std::int64_t, 3, 1> v;
+                    if (voxel_in_box(bounds.min, v) && in_voxel(bounds.max, v)) slot = slot_for(v, order[run.begin]);
                 }
                 if (slot == detail::VoxelSlots::none) {
                     for (std::uint32_t k = run.begin; k < run.end; ++k) add_point(order[k], points[k]);

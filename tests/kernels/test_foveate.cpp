@@ -308,6 +308,49 @@ TEST(Foveate, PointRunsNamingAnotherVoxelAreTakenPointByPoint)
                                   "voxel " + std::to_string(wrong) + " " + to_string(mode));
         }
     }
+
+    // An empty point run adds nothing (not an empty voxel), even naming a voxel of its region:
+    // a region whose only run is such gets no point.
+    const int levels = regions.levels + 1;
+    int target = -1;
+    for (int r = 0; r < regions.region_count() && target < 0; ++r)
+        if (regions.run_offsets[std::size_t(r) + 1] > regions.run_offsets[std::size_t(r)]) target = r;
+    ASSERT_GE(target, 0);
+    FoveationRegions with_empty = regions;
+    const std::uint32_t named = regions.runs[regions.run_offsets[std::size_t(target)]].voxel_begin;
+    const std::uint32_t at = index.voxels()[named].begin;
+    const auto first = with_empty.runs.begin() + with_empty.run_offsets[std::size_t(target)];
+    const auto last = with_empty.runs.begin() + with_empty.run_offsets[std::size_t(target) + 1];
+    const std::uint32_t removed = std::uint32_t(last - first) - 1;
+    *first = RegionRun{at, at, named, named};
+    with_empty.runs.erase(first + 1, last);
+    for (std::size_t r = std::size_t(target) + 1; r < with_empty.run_offsets.size(); ++r) with_empty.run_offsets[r] -= removed;
+    const FoveatedCloud emptied = downsample_regions(cloud, with_empty, structures, Downsample::voxel);
+    EXPECT_EQ(emptied.regions[std::size_t(target)].points_after, 0u);
+    for (const Point& p : emptied.cloud.points) ASSERT_TRUE(p.allFinite());
+
+    // A point run handed to a region whose box's voxels do not hold its points (the box grown by
+    // a voxel on every side does not) is still an error.
+    bool moved = false;
+    for (int from = 0; from < regions.region_count() && !moved; ++from) {
+        for (std::uint32_t i = regions.run_offsets[std::size_t(from)]; i < regions.run_offsets[std::size_t(from) + 1] && !moved; ++i) {
+            const RegionRun& run = regions.runs[i];
+            if (run.whole_voxels()) continue;
+            for (int to = 0; to < regions.region_count() && !moved; ++to) {
+                const FoveatedStructure& structure = structures[std::size_t(to / levels)];
+                Box box = structure.level_box(to % levels);
+                box.min.array() -= structure.density(to % levels);
+                box.max.array() += structure.density(to % levels);
+                if (regions.region(to / levels, to % levels).empty() || box.contains(index.ordered_points()[run.begin])) continue;
+                FoveationRegions wrong = regions;
+                wrong.runs.insert(wrong.runs.begin() + wrong.run_offsets[std::size_t(to)], run);
+                for (std::size_t r = std::size_t(to) + 1; r < wrong.run_offsets.size(); ++r) ++wrong.run_offsets[r];
+                EXPECT_THROW(downsample_regions(cloud, wrong, structures, Downsample::voxel), Error);
+                moved = true;
+            }
+        }
+    }
+    EXPECT_TRUE(moved);
 }
 
 TEST(Foveate, PointsExactlyOnBoxFaces)
