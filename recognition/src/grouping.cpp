@@ -54,12 +54,17 @@ bool fit_instance(const Features& model, const Features& scene, std::vector<Corr
 {
     if (cluster.size() < 3) return false;
     const float inlier2 = params.ransac_distance * params.ransac_distance;
+    // Every correspondence is written and only inliers are kept (the count moves past them): the
+    // branch it replaces went either way in clutter and was mispredicted often.
     auto inliers_of = [&](const Pose& pose, std::vector<std::uint32_t>& inliers) {
-        inliers.clear();
+        inliers.resize(cluster.size());
+        std::size_t count = 0;
         for (std::uint32_t i = 0; i < cluster.size(); ++i) {
             const Point moved = pose * model.keypoints[cluster[i].model];
-            if ((moved - scene.keypoints[cluster[i].scene]).squaredNorm() <= inlier2) inliers.push_back(i);
+            inliers[count] = i;
+            count += (moved - scene.keypoints[cluster[i].scene]).squaredNorm() <= inlier2;
         }
+        inliers.resize(count);
     };
     std::mt19937 rng(seed);
     std::uniform_int_distribution<std::uint32_t> pick(0, std::uint32_t(cluster.size() - 1));
