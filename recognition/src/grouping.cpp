@@ -1,10 +1,11 @@
 #include "mfpc/recognition/grouping.hpp"
 
 #include <algorithm>
+#include <bit>
 #include <cmath>
+#include <limits>
 #include <random>
 #include <string>
-#include <unordered_map>
 
 #include <Eigen/Geometry>
 #include <tbb/parallel_for.h>
@@ -45,6 +46,68 @@ Pose fit_sample(const Point (&from)[3], const Point (&to)[3])
     }
     return umeyama_pose(a, b);
 }
+
+// Bin numbers by packed bin key (63 bits: the top one is never set), open addressing, at most
+// half full.
+class BinTable {
+public:
+    static constexpr std::uint32_t none = std::numeric_limits<std::uint32_t>::max();
+
+    explicit BinTable(std::size_t expected) { allocate(std::bit_ceil(std::max<std::size_t>(expected, 8) * 2)); }
+
+    std::uint32_t find(std::uint64_t key) const
+    {
+        for (std::size_t h = home(key);; h = (h + 1) & (keys_.size() - 1)) {
+            if (keys_[h] == key) return bins_[h];
+            if (keys_[h] == empty) return none;
+        }
+    }
+
+    // The bin of `key`, made `next` when new: {bin, is_new}.
+    std::pair<std::uint32_t, bool> find_or_add(std::uint64_t key, std::uint32_t next)
+    {
+        std::size_t h = home(key);
+        for (; keys_[h] != empty; h = (h + 1) & (keys_.size() - 1))
+            if (keys_[h] == key) return {bins_[h], false};
+        if (2 * (used_ + 1) > keys_.size()) {
+            grow();
+            h = home(key);
+            while (keys_[h] != empty) h = (h + 1) & (keys_.size() - 1);
+        }
+        keys_[h] = key;
+        bins_[h] = next;
+        ++used_;
+        return {next, true};
+    }
+
+private:
+    static constexpr std::uint64_t empty = std::numeric_limits<std::uint64_t>::max();
+    std::size_t home(std::uint64_t key) const { return std::size_t((key * 0x9E3779B97F4A7C15ull) >> shift_); }
+    void allocate(std::size_t capacity)
+    {
+        keys_.assign(capacity, empty);
+        bins_.resize(capacity);
+        shift_ = 64 - std::countr_zero(capacity);
+    }
+    void grow()
+    {
+        std::vector<std::uint64_t> keys = std::move(keys_);
+        std::vector<std::uint32_t> bins = std::move(bins_);
+        allocate(keys.size() * 2);
+        for (std::size_t e = 0; e < keys.size(); ++e) {
+            if (keys[e] == empty) continue;
+            std::size_t h = home(keys[e]);
+            while (keys_[h] != empty) h = (h + 1) & (keys_.size() - 1);
+            keys_[h] = keys[e];
+            bins_[h] = bins[e];
+        }
+    }
+
+    std::vector<std::uint64_t> keys_;
+    std::vector<std::uint32_t> bins_;
+    std::size_t used_ = 0;
+    int shift_ = 64;
+};
 
 // RANSAC over a cluster's correspondences (three at a time, a generator seeded by the cluster's
 // rank, so the result does not depend on threads or runs), then a least-squares fit on the largest
@@ -143,17 +206,18 @@ std::vector<Instance> hough_grouping(const Features& model, const Features& scen
     }
 
     // Interpolated voting into a sparse 3D histogram: bin centres at (i + 0.5) * bin; each vote
-    // spreads over the 8 nearest centres with trilinear weights and is a voter of each.
-    struct Bin {
-        float value = 0.0f;
-        std::vector<std::uint32_t> voters;
-    };
+    // spreads over the 8 nearest centres with trilinear weights and is a voter of each. Bins are
+    // numbered in first-touch order (the scan order below) and found by their packed key in an
+    // open-addressing table; the (bin, voter) pairs are kept flat and grouped by bin only for the
+    // peaks. A node-based map with a voter list per bin spent most of the voting allocating.
     auto key_of = [](const Eigen::Vector3i& b) {
         return (std::uint64_t(std::uint32_t(b.x()) & 0x1FFFFF) << 42) | (std::uint64_t(std::uint32_t(b.y()) & 0x1FFFFF) << 21) |
                std::uint64_t(std::uint32_t(b.z()) & 0x1FFFFF);
     };
-    std::unordered_map<std::uint64_t, Bin> bins;
-    std::vector<std::pair<std::uint64_t, Eigen::Vector3i>> keys;  // first-touch order, for a fixed scan
+    BinTable table(votes.size() * 2);  // a guess: the votes share most of their bins
+    std::vector<float> values;            // per bin
+    std::vector<Eigen::Vector3i> coords;  // per bin
+    std::vector<std::pair<std::uint32_t, std::uint32_t>> voted;  // (bin, voter), in voting order
     const float inverse = 1.0f / params.hough_bin;
     for (std::uint32_t i = 0; i < votes.size(); ++i) {
         if (!votes[i].allFinite()) continue;
@@ -166,11 +230,13 @@ std::vector<Instance> hough_grouping(const Features& model, const Features& scen
             for (int axis = 0; axis < 3; ++axis) weight *= offset[axis] ? frac[axis] : 1.0f - frac[axis];
             if (weight <= 0.0f) continue;
             const Eigen::Vector3i b = base.cast<int>() + offset;
-            const std::uint64_t key = key_of(b);
-            auto [it, inserted] = bins.try_emplace(key);
-            if (inserted) keys.emplace_back(key, b);
-            it->second.value += weight;
-            it->second.voters.push_back(i);
+            const auto [bin, inserted] = table.find_or_add(key_of(b), std::uint32_t(values.size()));
+            if (inserted) {
+                values.push_back(0.0f);
+                coords.push_back(b);
+            }
+            values[bin] += weight;
+            voted.emplace_back(bin, i);
         }
     }
 
@@ -178,28 +244,34 @@ std::vector<Instance> hough_grouping(const Features& model, const Features& scen
     // one maximum) with at least hough_threshold votes.
     struct Peak {
         float value;
-        std::size_t order;
+        std::uint32_t bin;
     };
     std::vector<Peak> peaks;
-    for (std::size_t k = 0; k < keys.size(); ++k) {
-        const Bin& bin = bins.at(keys[k].first);
-        if (bin.value < params.hough_threshold) continue;
+    for (std::uint32_t k = 0; k < values.size(); ++k) {
+        const float value = values[k];
+        if (value < params.hough_threshold) continue;
         bool is_max = true;
         for (int dz = -1; dz <= 1 && is_max; ++dz)
             for (int dy = -1; dy <= 1 && is_max; ++dy)
                 for (int dx = -1; dx <= 1 && is_max; ++dx) {
                     if (!dx && !dy && !dz) continue;
-                    const auto it = bins.find(key_of(keys[k].second + Eigen::Vector3i(dx, dy, dz)));
-                    if (it == bins.end()) continue;
-                    if (it->second.value > bin.value) is_max = false;
-                    else if (it->second.value == bin.value && std::make_tuple(dz, dy, dx) < std::make_tuple(0, 0, 0))
+                    const std::uint32_t other = table.find(key_of(coords[k] + Eigen::Vector3i(dx, dy, dz)));
+                    if (other == BinTable::none) continue;
+                    if (values[other] > value) is_max = false;
+                    else if (values[other] == value && std::make_tuple(dz, dy, dx) < std::make_tuple(0, 0, 0))
                         is_max = false;
                 }
-        if (is_max) peaks.push_back({bin.value, k});
+        if (is_max) peaks.push_back({value, k});
     }
     std::sort(peaks.begin(), peaks.end(), [](const Peak& a, const Peak& b) {
-        return a.value != b.value ? a.value > b.value : a.order < b.order;
+        return a.value != b.value ? a.value > b.value : a.bin < b.bin;
     });
+    // The voters of each peak, in voting order.
+    std::vector<std::uint32_t> peak_of(values.size(), std::uint32_t(peaks.size()));
+    for (std::uint32_t rank = 0; rank < peaks.size(); ++rank) peak_of[peaks[rank].bin] = rank;
+    std::vector<std::vector<std::uint32_t>> voters(peaks.size());
+    for (const auto& [bin, voter] : voted)
+        if (peak_of[bin] < peaks.size()) voters[peak_of[bin]].push_back(voter);
 
     // The clusters are fitted in parallel; each fit draws from its own generator, seeded by its
     // rank, so the instances do not depend on the threads.
@@ -207,7 +279,7 @@ std::vector<Instance> hough_grouping(const Features& model, const Features& scen
     std::vector<char> found(peaks.size(), 0);
     tbb::parallel_for(std::size_t(0), peaks.size(), [&](std::size_t rank) {
         std::vector<Correspondence> cluster;
-        for (std::uint32_t v : bins.at(keys[peaks[rank].order].first).voters) cluster.push_back(correspondences[v]);
+        for (std::uint32_t v : voters[rank]) cluster.push_back(correspondences[v]);
         found[rank] = fit_instance(model, scene, std::move(cluster), params, std::uint32_t(rank + 1), fitted[rank]);
         fitted[rank].votes = peaks[rank].value;
     });

@@ -96,6 +96,37 @@ TEST(HoughGrouping, FindsTwoPlantedInstancesAmongOutliers)
     }
 }
 
+// Thousands of outliers scattered over a room put each of their votes in bins of their own, far
+// more bins than correspondences: the instances still stand out.
+TEST(HoughGrouping, FindsPlantedInstancesAmongScatteredVotes)
+{
+    std::mt19937 rng(19);
+    std::uniform_real_distribution<float> unit(-0.08f, 0.08f), room(-2.0f, 2.0f);
+    Features model;
+    for (int i = 0; i < 60; ++i) {
+        model.keypoints.emplace_back(unit(rng), unit(rng), unit(rng));
+        model.frames.push_back(random_pose(rng).linear());
+    }
+    const Pose pose = random_pose(rng);
+    Features scene;
+    std::vector<Correspondence> correspondences;
+    for (std::uint32_t i = 0; i < model.keypoints.size(); ++i) {
+        scene.keypoints.push_back(pose * model.keypoints[i]);
+        scene.frames.push_back(model.frames[i] * pose.linear().transpose());
+        correspondences.push_back({i, i, 0.1f});
+    }
+    std::uniform_int_distribution<std::uint32_t> pick_model(0, 59);
+    for (int i = 0; i < 4000; ++i) {
+        scene.keypoints.emplace_back(room(rng), room(rng), room(rng));
+        scene.frames.push_back(random_pose(rng).linear());
+        correspondences.push_back({pick_model(rng), std::uint32_t(scene.keypoints.size() - 1), 0.2f});
+    }
+    const auto instances = hough_grouping(model, scene, correspondences, GroupingParams{});
+    ASSERT_EQ(instances.size(), 1u);
+    EXPECT_LT(translation_error(instances[0].transform, pose), 1e-4f);
+    EXPECT_EQ(instances[0].correspondences.size(), 60u);
+}
+
 TEST(RecognitionParams, DefaultsRoundTripAndBadValuesAreNamed)
 {
     const RecognitionParams defaults;
