@@ -7,7 +7,8 @@ namespace mfpc {
 
 std::optional<Camera> fit_camera(const PointCloud& organized)
 {
-    if (!organized.organized() || organized.size() < 100) return std::nullopt;
+    // No width: no pixel to fit against (and a division by zero below).
+    if (!organized.organized() || organized.width == 0 || organized.size() < 100) return std::nullopt;
     // u = fx * x / z + cx, v = fy * y / z + cy: two straight-line fits.
     double sx = 0, su = 0, sxx = 0, sxu = 0, sy = 0, sv = 0, syy = 0, syv = 0;
     for (std::size_t i = 0; i < organized.size(); ++i) {

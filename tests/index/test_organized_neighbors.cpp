@@ -81,6 +81,25 @@ TEST(OrganizedNeighbors, SameNeighboursAsTheGridOnTheRealScene)
     expect_same_as_grid(read_cloud(path), 10, 7, 0.005f);
 }
 
+// The fit recovers the synthetic views' pinhole (f = 525, centre in the middle of the image) from
+// the points and their pixels, on narrow and wide images; an image with no width has no camera.
+TEST(FitCamera, RecoversThePinholeOfASyntheticView)
+{
+    for (const auto& [width, height] : {std::pair{160u, 120u}, std::pair{1u << 12, 40u}, std::pair{7u, 300u}}) {
+        const PointCloud cloud = synthetic_view(width, height, 11);
+        const auto camera = fit_camera(cloud);
+        ASSERT_TRUE(camera.has_value()) << width << " x " << height;
+        EXPECT_NEAR(camera->fx, 525.0f, 0.05f) << width << " x " << height;
+        EXPECT_NEAR(camera->fy, 525.0f, 0.05f) << width << " x " << height;
+        EXPECT_NEAR(camera->cx, 0.5f * float(width - 1), 0.05f) << width << " x " << height;
+        EXPECT_NEAR(camera->cy, 0.5f * float(height - 1), 0.05f) << width << " x " << height;
+        EXPECT_LT(camera->max_residual, 0.01f) << width << " x " << height;
+    }
+    PointCloud no_width = synthetic_view(40, 30, 1);
+    no_width.width = 0;
+    EXPECT_FALSE(fit_camera(no_width).has_value());
+}
+
 TEST(OrganizedNeighbors, RefusesAnUnorganizedCloudAndAForeignGrid)
 {
     const PointCloud cloud = synthetic_view(40, 30, 1);
