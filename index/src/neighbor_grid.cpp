@@ -190,7 +190,8 @@ void NeighborGrid::radius_search(const Point& center, float radius, std::vector<
     // The candidates' ranges first, so the outputs grow once. Then every candidate is written and
     // only those within the radius are kept (the count moves past them): a branch per candidate,
     // taken about half the time on a surface, was mispredicted often enough to cost a quarter of
-    // the search.
+    // the search. The ranges are per thread, as knn_search's candidates: a query allocates
+    // nothing once its thread has seen as many rows; they carry nothing from one query to the next.
     thread_local std::vector<std::pair<std::uint32_t, std::uint32_t>> ranges;
     ranges.clear();
     std::size_t candidates = 0;
