@@ -2,6 +2,9 @@
 
 #include <chrono>
 #include <optional>
+#include <vector>
+
+#include <tbb/parallel_invoke.h>
 
 #include "mfpc/core/camera.hpp"
 #include "mfpc/core/error.hpp"
@@ -33,41 +36,51 @@ RecognitionResult recognize(const Model& model, const PointCloud& scene, const R
     result.counts.model_keypoints_invalid = model.features.invalid;
 
     FoveatedCloud foveated;
-    const PointCloud* used = &scene;
-    if (foveation.config != nullptr && foveation.mode != FoveationMode::none) {
-        const auto t = Clock::now();
-        foveated = foveate(scene, *foveation.config, foveation.mode, foveation.single_structure);
-        used = &foveated.cloud;
-        result.timings.foveate = elapsed_ms(t);
-    }
-    result.counts.scene_points_used = used->size();
-    result.counts.scene_points_foveated = used == &scene ? scene.size() : foveated.points_before_downsampling;
-    result.counts.redundant_points = foveated.redundant_points;
-
-    auto t = Clock::now();
-    const std::vector<std::uint32_t> keypoints =
-        used == &scene ? uniform_sampling(scene.points, params.scene.keypoint_radius)
-                       : uniform_sampling(used->points, foveated.labels, foveation.config->structures);
-    result.timings.keypoints = elapsed_ms(t);
-
+    const bool foveating = foveation.config != nullptr && foveation.mode != FoveationMode::none;
+    const PointCloud* used = foveating ? &foveated.cloud : &scene;
+    std::vector<std::uint32_t> keypoints;
     // One grid and one camera over the whole scene serve the normals (when taken from the full
     // scene) and verification.
     FeatureTimings feature_timings;
-    const bool full_normals = params.normals_from == NormalsFrom::full || used == &scene;
+    const bool full_normals = params.normals_from == NormalsFrom::full || !foveating;
     const bool verify = params.refine.enabled || params.verify.enabled;
-    t = Clock::now();
     std::optional<NeighborGrid> scene_grid;
     std::optional<Camera> camera;
-    if (full_normals || verify) {
-        scene_grid.emplace(scene.points, normal_grid_cell);
-        camera = fit_camera(scene);
-    }
-    // A sensor scene's neighbours are found in its depth image (same result, faster).
     std::optional<OrganizedNeighbors> organized;
-    if (full_normals && camera) organized.emplace(scene, *camera);
+    // Foveation and keypoints on one side, the whole scene's grid and camera on the other: they
+    // share nothing, and each scales poorly on its own (the camera fit is serial), so with more
+    // than one thread they run side by side. Each stage's time is its own, so foveate and normals
+    // may add up to more than the total.
+    auto foveate_and_sample = [&] {
+        if (foveating) {
+            const auto t = Clock::now();
+            foveated = foveate(scene, *foveation.config, foveation.mode, foveation.single_structure);
+            result.timings.foveate = elapsed_ms(t);
+        }
+        const auto t = Clock::now();
+        keypoints = foveating ? uniform_sampling(used->points, foveated.labels, foveation.config->structures)
+                              : uniform_sampling(scene.points, params.scene.keypoint_radius);
+        result.timings.keypoints = elapsed_ms(t);
+    };
+    auto index_scene = [&] {
+        const auto t = Clock::now();
+        if (full_normals || verify) {
+            scene_grid.emplace(scene.points, normal_grid_cell);
+            camera = fit_camera(scene);
+        }
+        // A sensor scene's neighbours are found in its depth image (same result, faster).
+        if (full_normals && camera) organized.emplace(scene, *camera);
+        feature_timings.normals_ms = elapsed_ms(t);
+    };
+    tbb::parallel_invoke(foveate_and_sample, index_scene);
+    result.counts.scene_points_used = used->size();
+    result.counts.scene_points_foveated = foveating ? foveated.points_before_downsampling : scene.size();
+    result.counts.redundant_points = foveated.redundant_points;
+
+    auto t = Clock::now();
     std::optional<NeighborGrid> foveated_grid;
     if (!full_normals) foveated_grid.emplace(used->points, normal_grid_cell);
-    feature_timings.normals_ms = elapsed_ms(t);
+    feature_timings.normals_ms += elapsed_ms(t);
     result.scene_features = describe_keypoints(used->points, keypoints, full_normals ? *scene_grid : *foveated_grid,
                                                params.scene, &feature_timings, organized ? &*organized : nullptr);
     result.timings.normals = feature_timings.normals_ms;
