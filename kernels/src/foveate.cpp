@@ -613,6 +613,14 @@ RegionOutput downsample_region(const PointCloud& cloud, const RegionMembers& reg
         if (normals) slot_of.push_back(slot);
     };
     auto add_point = [&](std::uint32_t point, const Point& p) { add_to(slot_for(voxel(p), point), point, p); };
+    // The slot of the downsampling voxel holding all of `bounds` (tight bounds of index voxel
+    // points, `first` the lowest of them), or none when they span several voxels or leave the
+    // box's: the points then go one by one, where a member outside the box is an error.
+    auto bounds_slot = [&](const Box& bounds, std::uint32_t first) {
+        Eigen::Matrix<std::int64_t, 3, 1> v;
+        if (!voxel_in_box(bounds.min, v) || !in_voxel(bounds.max, v)) return detail::VoxelSlots::none;
+        return slot_for(v, first);
+    };
     if (region.runs.empty()) {
         region.for_each(cloud, add_point);
     } else {
@@ -627,16 +635,12 @@ RegionOutput downsample_region(const PointCloud& cloud, const RegionMembers& reg
                 // Some points of one index voxel (foveation_regions names it; a run that is empty
                 // or not within the voxel it names is taken point by point). When the voxel's
                 // bounds fall in one downsampling voxel, so do these points: one lookup for all of
-                // them. The voxel straddles a box face, so its bounds may leave the box's voxels;
-                // then they span more than one voxel, and the points go one by one.
+                // them. The voxel straddles a box face, so its bounds may leave the box's voxels.
                 const std::uint32_t iv = run.voxel_begin;
-                std::uint32_t slot = detail::VoxelSlots::none;
-                if (run.begin < run.end && iv < index_voxels.size() && index_voxels[iv].begin <= run.begin &&
-                    run.end <= index_voxels[iv].end) {
-                    const Box& bounds = index_voxels[iv].bounds;
-                    Eigen::Matrix<std::int64_t, 3, 1> v;
-                    if (voxel_in_box(bounds.min, v) && in_voxel(bounds.max, v)) slot = slot_for(v, order[run.begin]);
-                }
+                const bool named = run.begin < run.end && iv < index_voxels.size() &&
+                                   index_voxels[iv].begin <= run.begin && run.end <= index_voxels[iv].end;
+                const std::uint32_t slot =
+                    named ? bounds_slot(index_voxels[iv].bounds, order[run.begin]) : detail::VoxelSlots::none;
                 if (slot == detail::VoxelSlots::none) {
                     for (std::uint32_t k = run.begin; k < run.end; ++k) add_point(order[k], points[k]);
                     continue;
@@ -648,12 +652,11 @@ RegionOutput downsample_region(const PointCloud& cloud, const RegionMembers& reg
                 const PointIndexVoxel& index_voxel = index_voxels[iv];
                 // A whole index voxel whose tight bounds fall in one downsampling voxel: one lookup
                 // for all its points (ascending within the voxel, so the first is the lowest).
-                const auto v = voxel(index_voxel.bounds.min);
-                if (!in_voxel(index_voxel.bounds.max, v)) {
+                const std::uint32_t slot = bounds_slot(index_voxel.bounds, order[index_voxel.begin]);
+                if (slot == detail::VoxelSlots::none) {
                     for (std::uint32_t k = index_voxel.begin; k < index_voxel.end; ++k) add_point(order[k], points[k]);
                     continue;
                 }
-                const std::uint32_t slot = slot_for(v, order[index_voxel.begin]);
                 Sum& sum = voxels[slot];
                 sum.xyz += index_voxel.sum;
                 if (!color_sums.empty()) {
