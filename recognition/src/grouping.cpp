@@ -1,9 +1,7 @@
 #include "mfpc/recognition/grouping.hpp"
 
 #include <algorithm>
-#include <bit>
 #include <cmath>
-#include <limits>
 #include <random>
 #include <string>
 
@@ -11,6 +9,7 @@
 #include <tbb/parallel_for.h>
 
 #include "mfpc/core/error.hpp"
+#include "mfpc/core/slot_table.hpp"
 
 namespace mfpc {
 namespace {
@@ -46,68 +45,6 @@ Pose fit_sample(const Point (&from)[3], const Point (&to)[3])
     }
     return umeyama_pose(a, b);
 }
-
-// Bin numbers by packed bin key (63 bits: the top one is never set), open addressing, at most
-// half full.
-class BinTable {
-public:
-    static constexpr std::uint32_t none = std::numeric_limits<std::uint32_t>::max();
-
-    explicit BinTable(std::size_t expected) { allocate(std::bit_ceil(std::max<std::size_t>(expected, 8) * 2)); }
-
-    std::uint32_t find(std::uint64_t key) const
-    {
-        for (std::size_t h = home(key);; h = (h + 1) & (keys_.size() - 1)) {
-            if (keys_[h] == key) return bins_[h];
-            if (keys_[h] == empty) return none;
-        }
-    }
-
-    // The bin of `key`, made `next` when new: {bin, is_new}.
-    std::pair<std::uint32_t, bool> find_or_add(std::uint64_t key, std::uint32_t next)
-    {
-        std::size_t h = home(key);
-        for (; keys_[h] != empty; h = (h + 1) & (keys_.size() - 1))
-            if (keys_[h] == key) return {bins_[h], false};
-        if (2 * (used_ + 1) > keys_.size()) {
-            grow();
-            h = home(key);
-            while (keys_[h] != empty) h = (h + 1) & (keys_.size() - 1);
-        }
-        keys_[h] = key;
-        bins_[h] = next;
-        ++used_;
-        return {next, true};
-    }
-
-private:
-    static constexpr std::uint64_t empty = std::numeric_limits<std::uint64_t>::max();
-    std::size_t home(std::uint64_t key) const { return std::size_t((key * 0x9E3779B97F4A7C15ull) >> shift_); }
-    void allocate(std::size_t capacity)
-    {
-        keys_.assign(capacity, empty);
-        bins_.resize(capacity);
-        shift_ = 64 - std::countr_zero(capacity);
-    }
-    void grow()
-    {
-        std::vector<std::uint64_t> keys = std::move(keys_);
-        std::vector<std::uint32_t> bins = std::move(bins_);
-        allocate(keys.size() * 2);
-        for (std::size_t e = 0; e < keys.size(); ++e) {
-            if (keys[e] == empty) continue;
-            std::size_t h = home(keys[e]);
-            while (keys_[h] != empty) h = (h + 1) & (keys_.size() - 1);
-            keys_[h] = keys[e];
-            bins_[h] = bins[e];
-        }
-    }
-
-    std::vector<std::uint64_t> keys_;
-    std::vector<std::uint32_t> bins_;
-    std::size_t used_ = 0;
-    int shift_ = 64;
-};
 
 // RANSAC over a cluster's correspondences (three at a time, a generator seeded by the cluster's
 // rank, so the result does not depend on threads or runs), then a least-squares fit on the largest
@@ -207,14 +144,14 @@ std::vector<Instance> hough_grouping(const Features& model, const Features& scen
 
     // Interpolated voting into a sparse 3D histogram: bin centres at (i + 0.5) * bin; each vote
     // spreads over the 8 nearest centres with trilinear weights and is a voter of each. Bins are
-    // numbered in first-touch order (the scan order below) and found by their packed key in an
-    // open-addressing table; the (bin, voter) pairs are kept flat and grouped by bin only for the
+    // numbered in first-touch order (the scan order below) and found by their packed key (63 bits)
+    // in a SlotTable; the (bin, voter) pairs are kept flat and grouped by bin only for the
     // peaks. A node-based map with a voter list per bin spent most of the voting allocating.
     auto key_of = [](const Eigen::Vector3i& b) {
         return (std::uint64_t(std::uint32_t(b.x()) & 0x1FFFFF) << 42) | (std::uint64_t(std::uint32_t(b.y()) & 0x1FFFFF) << 21) |
                std::uint64_t(std::uint32_t(b.z()) & 0x1FFFFF);
     };
-    BinTable table(votes.size() * 2);  // a guess: the votes share most of their bins
+    detail::SlotTable table(votes.size() * 2);  // a guess: the votes share most of their bins
     std::vector<float> values;            // per bin
     std::vector<Eigen::Vector3i> coords;  // per bin
     std::vector<std::pair<std::uint32_t, std::uint32_t>> voted;  // (bin, voter), in voting order
@@ -256,7 +193,7 @@ std::vector<Instance> hough_grouping(const Features& model, const Features& scen
                 for (int dx = -1; dx <= 1 && is_max; ++dx) {
                     if (!dx && !dy && !dz) continue;
                     const std::uint32_t other = table.find(key_of(coords[k] + Eigen::Vector3i(dx, dy, dz)));
-                    if (other == BinTable::none) continue;
+                    if (other == detail::SlotTable::none) continue;
                     if (values[other] > value) is_max = false;
                     else if (values[other] == value && std::make_tuple(dz, dy, dx) < std::make_tuple(0, 0, 0))
                         is_max = false;
