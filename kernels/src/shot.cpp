@@ -14,6 +14,7 @@
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_reduce.h>
 
+#include "atan_fit.hpp"
 #include "mfpc/core/error.hpp"
 
 #if defined(__SSE2__)
@@ -147,14 +148,10 @@ inline Float4 horner(Float4 x, const double (&coefficients)[N], double scale)
     return p;
 }
 
-// atan(t) / (pi / 4) for t in [0, 1]: t * P(t^2), a Chebyshev fit of atan(sqrt(s)) / sqrt(s) on
-// [0, 1] (|error| < 1e-8 rad in double; the float evaluation adds a few 1e-8), scaled.
+// atan(t) / (pi / 4) for t in [0, 1].
 inline Float4 atan_in_eighths(Float4 t)
 {
-    static constexpr double fit[] = {0.0027662835013404015, -0.01573124912073214, 0.04213762358723227,
-                                     -0.07456854825872634,  0.10618370636906622,  -0.14197797794075448,
-                                     0.1999187202910766,    -0.33333036709286157, 0.9999999817886557};
-    return t * horner(t * t, fit, 4 / pi);
+    return t * horner(t * t, detail::atan_fit, 4 / pi);
 }
 
 // acos(c) / (pi / 2) for c in [-1, 1]: sqrt(1 - |c|) * P(|c|), a Chebyshev fit of
