@@ -34,16 +34,66 @@ Pose umeyama_pose(const Columns& from, const Columns& to)
     return pose;
 }
 
-// fit_rigid of a three-pair sample in fixed-size matrices: RANSAC fits thousands of them, and the
-// dynamic-size fit spends most of its time allocating.
+// An orthonormal frame of the plane through three points: the first axis along the first edge,
+// the third along the normal. False when the points are collinear.
+bool plane_frame(const Eigen::Vector3d (&p)[3], Eigen::Matrix3d& frame)
+{
+    const Eigen::Vector3d edge = p[1] - p[0];
+    const Eigen::Vector3d normal = edge.cross(p[2] - p[0]);
+    if (!(normal.squaredNorm() > 0.0)) return false;
+    frame.col(0) = edge.normalized();
+    frame.col(2) = normal.normalized();
+    frame.col(1) = frame.col(2).cross(frame.col(0));
+    return true;
+}
+
+// fit_rigid of three pairs, in closed form: RANSAC fits thousands of samples, and the SVD was most
+// of its time. Three points span a plane, so with the planes' frames E and F (each with its normal
+// along its own triangle's vertex order) only the 2x2 block Q of G = F^T R E enters the sum to
+// maximize: sum b_i^T R a_i = tr(Q M), M = sum alpha_i beta_i^T in plane coordinates. Q, a block of
+// a rotation, gives at most M's nuclear norm, which the 2x2 rotation along (m00 + m11, m01 - m10)
+// reaches when det M > 0; and det M is three times the product of the centred triangles' signed
+// areas (Cauchy-Binet), positive in these frames. So G is that rotation about the normal: the
+// same pose as Umeyama's SVD, to rounding.
 Pose fit_sample(const Point (&from)[3], const Point (&to)[3])
 {
-    Eigen::Matrix3d a, b;
+    Eigen::Vector3d a[3], b[3];
+    Eigen::Vector3d a_mean = Eigen::Vector3d::Zero(), b_mean = Eigen::Vector3d::Zero();
     for (int i = 0; i < 3; ++i) {
-        a.col(i) = from[i].cast<double>();
-        b.col(i) = to[i].cast<double>();
+        a[i] = from[i].cast<double>();
+        b[i] = to[i].cast<double>();
+        a_mean += a[i];
+        b_mean += b[i];
     }
-    return umeyama_pose(a, b);
+    a_mean /= 3.0;
+    b_mean /= 3.0;
+    Eigen::Matrix3d e, f;
+    Eigen::Vector2d turn = Eigen::Vector2d::Zero();  // (m00 + m11, m01 - m10)
+    const bool planes = plane_frame(a, e) && plane_frame(b, f);
+    if (planes) {
+        for (int i = 0; i < 3; ++i) {
+            const Eigen::Vector2d alpha = e.leftCols<2>().transpose() * (a[i] - a_mean);
+            const Eigen::Vector2d beta = f.leftCols<2>().transpose() * (b[i] - b_mean);
+            turn += Eigen::Vector2d(alpha.dot(beta), alpha.x() * beta.y() - alpha.y() * beta.x());
+        }
+    }
+    // Collinear scene points: the SVD's answer, whatever it is.
+    if (!planes || !(turn.squaredNorm() > 0.0)) {
+        Eigen::Matrix3d from_columns, to_columns;
+        for (int i = 0; i < 3; ++i) {
+            from_columns.col(i) = a[i];
+            to_columns.col(i) = b[i];
+        }
+        return umeyama_pose(from_columns, to_columns);
+    }
+    const Eigen::Vector2d u = turn.normalized();
+    Eigen::Matrix3d g;
+    g << u.x(), -u.y(), 0.0, u.y(), u.x(), 0.0, 0.0, 0.0, 1.0;
+    const Eigen::Matrix3d rotation = f * g * e.transpose();
+    Pose pose = Pose::Identity();
+    pose.linear() = rotation.cast<float>();
+    pose.translation() = (b_mean - rotation * a_mean).cast<float>();
+    return pose;
 }
 
 // RANSAC over a cluster's correspondences (three at a time, a generator seeded by the cluster's
@@ -114,6 +164,7 @@ bool fit_instance(const Features& model, const Features& scene, std::vector<Corr
 Pose fit_rigid(std::span<const Point> from, std::span<const Point> to)
 {
     if (from.size() != to.size() || from.size() < 3) throw Error("fit_rigid", "needs at least three point pairs");
+    if (from.size() == 3) return fit_sample({from[0], from[1], from[2]}, {to[0], to[1], to[2]});
     Eigen::Matrix3Xd a(3, from.size()), b(3, to.size());
     for (std::size_t i = 0; i < from.size(); ++i) {
         a.col(Eigen::Index(i)) = from[i].cast<double>();

@@ -50,6 +50,51 @@ TEST(FitRigid, RecoversAKnownTransform)
     EXPECT_THROW(fit_rigid(std::span(from).first(2), std::span(to).first(2)), Error);
 }
 
+// Three pairs take a closed form (RANSAC's samples): it must be the least-squares pose that
+// Umeyama's SVD gives, for exact pairs, noisy ones, pairs whose triangles are mirror images (the
+// best rotation turns the plane over) and collinear scene points (the SVD's answer).
+TEST(FitRigid, ThreePairsGiveUmeyamasPose)
+{
+    std::mt19937 rng(11);
+    std::uniform_real_distribution<float> unit(-0.1f, 0.1f);
+    std::normal_distribution<float> noise(0.0f, 0.01f);
+    auto umeyama = [](const std::vector<Point>& from, const std::vector<Point>& to) {
+        Eigen::Matrix3d a, b;
+        for (int i = 0; i < 3; ++i) {
+            a.col(i) = from[std::size_t(i)].cast<double>();
+            b.col(i) = to[std::size_t(i)].cast<double>();
+        }
+        const Eigen::Matrix4d m = Eigen::umeyama(a, b, false);
+        Pose pose = Pose::Identity();
+        pose.linear() = m.topLeftCorner<3, 3>().cast<float>();
+        pose.translation() = m.topRightCorner<3, 1>().cast<float>();
+        return pose;
+    };
+    for (int trial = 0; trial < 400; ++trial) {
+        const Pose truth = random_pose(rng);
+        std::vector<Point> from, to;
+        for (int i = 0; i < 3; ++i) {
+            from.emplace_back(unit(rng), unit(rng), unit(rng));
+            to.push_back(truth * from.back());
+        }
+        const int kind = trial % 4;
+        if (kind == 1)
+            for (Point& p : to) p += Point(noise(rng), noise(rng), noise(rng));
+        if (kind == 2) std::swap(to[1], to[2]);  // mirror image: no rotation maps the triangle exactly
+        if (kind == 3) to[2] = to[0] + 0.5f * (to[1] - to[0]);
+        SCOPED_TRACE("trial " + std::to_string(trial));
+        const Pose fitted = fit_rigid(from, to);
+        const Pose expected = umeyama(from, to);
+        // Matrix elements, not rotation_error_deg: its acos of a float trace cannot resolve 0.03 deg.
+        EXPECT_NEAR(fitted.linear().determinant(), 1.0f, 1e-5f);
+        EXPECT_LT((fitted.linear() - expected.linear()).cwiseAbs().maxCoeff(), 1e-5f);
+        EXPECT_LT(translation_error(fitted, expected), 1e-5f);
+        if (kind == 0) {
+            EXPECT_LT((fitted.linear() - truth.linear()).cwiseAbs().maxCoeff(), 1e-5f);
+        }
+    }
+}
+
 // Two copies of a model keypoint set at known poses, with frames carried along, plus random
 // outlier correspondences: Hough voting must return both poses and nothing else.
 TEST(HoughGrouping, FindsTwoPlantedInstancesAmongOutliers)
