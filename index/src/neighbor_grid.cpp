@@ -148,9 +148,11 @@ bool NeighborGrid::row_range(int y, int z, int x0, int x1, std::uint32_t& begin,
 template <class Visit>
 void NeighborGrid::for_each_shell_range(const Eigen::Vector3i& c, int ring, Visit&& visit) const
 {
-    for (int z = c.z() - ring; z <= c.z() + ring; ++z) {
+    // Rows outside the occupied range are empty: a wide shell around a far centre skips them.
+    const int z_end = std::min(c.z() + ring, max_cell_.z()), y_end = std::min(c.y() + ring, max_cell_.y());
+    for (int z = std::max(c.z() - ring, min_cell_.z()); z <= z_end; ++z) {
         const bool z_face = std::abs(z - c.z()) == ring;
-        for (int y = c.y() - ring; y <= c.y() + ring; ++y) {
+        for (int y = std::max(c.y() - ring, min_cell_.y()); y <= y_end; ++y) {
             std::uint32_t begin = 0, end = 0;
             if (z_face || std::abs(y - c.y()) == ring) {
                 if (row_range(y, z, c.x() - ring, c.x() + ring, begin, end)) visit(begin, end);
@@ -322,9 +324,22 @@ void NeighborGrid::knn_search(const Point& center, int k, std::vector<std::uint3
                                   .cwiseMin(max_cell_.cast<float>() + Eigen::Vector3f::Constant(2.0f))
                                   .cast<int>();
     // Shells of cells at Chebyshev distance 0, 1, 2, ... from the centre's cell, until the k-th
-    // candidate is closer than anything outside the block.
+    // candidate is closer than anything outside the block. Each shell costs a row lookup per row
+    // it crosses, so a centre far from its k-th neighbour (an outlier, or a grid with a few far
+    // points) would pay rings^3 lookups: once they would cost more than reading every point, every
+    // point is read instead. The k nearest are the same: keep_nearest does not depend on the order.
     const int max_ring = std::max((c - min_cell_).cwiseAbs().maxCoeff(), (max_cell_ - c).cwiseAbs().maxCoeff());
+    const std::size_t budget = points_.size() / 8 + 64;
+    std::size_t lookups = 0;
     for (int ring = 0; ring <= max_ring; ++ring) {
+        const Eigen::Vector3i lo = (c.array() - ring).max(min_cell_.array());
+        const Eigen::Vector3i hi = (c.array() + ring).min(max_cell_.array());
+        lookups += std::size_t(std::max(0, hi.y() - lo.y() + 1)) * std::size_t(std::max(0, hi.z() - lo.z() + 1));
+        if (lookups > budget) {
+            best.clear();
+            consider(0, std::uint32_t(points_.size()));
+            break;
+        }
         for_each_shell_range(c, ring, consider);
         if (best.size() < want) continue;
         const float margin = shell_margin(center, c, ring);

@@ -219,6 +219,41 @@ TEST(NeighborGrid, NearestBreaksTiesByIndexOnCellFaces)
     }
 }
 
+// Outliers metres from a millimetre-cell patch: their k nearest lie thousands of shells away, which
+// shell by shell would take ~1e12 row lookups (a hang); the search reads every point instead, and
+// finds what a scan finds, alone and in a batch.
+TEST(NeighborGrid, KnnOfOutliersFarFromEverythingMatchesBruteForce)
+{
+    std::vector<Point> points;
+    for (int i = 0; i < 60; ++i)
+        for (int j = 0; j < 60; ++j) points.emplace_back(0.001f * float(i), 0.001f * float(j), 1.0f);
+    for (int o = 1; o <= 5; ++o) points.emplace_back(2.0f * float(o), 0.03f * float(o), 1.0f - 0.5f * float(o));
+    const NeighborGrid grid(points, 0.001f);
+    std::vector<std::uint32_t> indices;
+    std::vector<float> distances;
+    std::vector<Point> queries;
+    for (std::size_t q = points.size() - 5; q < points.size(); ++q) queries.push_back(points[q]);
+    queries.emplace_back(-7.0f, 0.02f, 3.0f);  // beside no point at all
+    for (const int k : {1, 4, 12}) {
+        std::vector<std::uint32_t> batch_indices(queries.size() * std::size_t(k));
+        std::vector<float> batch_distances(batch_indices.size());
+        grid.knn_search_batch(queries, k, batch_indices, batch_distances);
+        for (std::size_t q = 0; q < queries.size(); ++q) {
+            grid.knn_search(queries[q], k, indices, distances);
+            std::vector<std::pair<float, std::uint32_t>> all;
+            for (std::size_t i = 0; i < points.size(); ++i)
+                all.emplace_back(brute_distance(points[i], queries[q]), std::uint32_t(i));
+            std::partial_sort(all.begin(), all.begin() + k, all.end());
+            ASSERT_EQ(indices.size(), std::size_t(k));
+            for (std::size_t j = 0; j < std::size_t(k); ++j) {
+                EXPECT_EQ(indices[j], all[j].second) << "k " << k << " query " << q;
+                EXPECT_EQ(distances[j], all[j].first);
+                EXPECT_EQ(batch_indices[q * std::size_t(k) + j], all[j].second);
+            }
+        }
+    }
+}
+
 TEST(NeighborGrid, FewerPointsThanKAndFarQueries)
 {
     const std::vector<Point> points = {Point(0, 0, 0), Point(1, 0, 0), Point(0, 2, 0)};
