@@ -4,6 +4,7 @@
 #include <chrono>
 #include <limits>
 #include <string>
+#include <utility>
 
 #include "mfpc/core/error.hpp"
 #include "mfpc/index/neighbor_grid.hpp"
@@ -84,8 +85,12 @@ Features describe_keypoints(std::span<const Point> surface, std::span<const std:
                      &neighborhoods);
     time.descriptors_ms += elapsed_ms(start);
 
+    // Invalid keypoints are dropped in place, the valid ones moved down over them: appending the
+    // descriptors to a new array grew it piece by piece, and its fresh pages (4 MB on a scene)
+    // cost more than the descriptors' copy.
     Features features;
     features.candidates = keypoints.size();
+    std::size_t kept = 0;
     for (std::size_t i = 0; i < keypoints.size(); ++i) {
         const auto descriptor = std::span<const float>(descriptors).subspan(i * shot_size, shot_size);
         const bool valid = is_valid(board[i]) &&
@@ -94,10 +99,19 @@ Features describe_keypoints(std::span<const Point> surface, std::span<const std:
             ++features.invalid;
             continue;
         }
-        features.keypoints.push_back(keypoint_points[i]);
-        features.frames.push_back(board[i]);
-        features.descriptors.insert(features.descriptors.end(), descriptor.begin(), descriptor.end());
+        if (kept != i) {
+            keypoint_points[kept] = keypoint_points[i];
+            board[kept] = board[i];
+            std::copy(descriptor.begin(), descriptor.end(), descriptors.begin() + std::ptrdiff_t(kept * shot_size));
+        }
+        ++kept;
     }
+    keypoint_points.resize(kept);
+    board.resize(kept);
+    descriptors.resize(kept * shot_size);
+    features.keypoints = std::move(keypoint_points);
+    features.frames = std::move(board);
+    features.descriptors = std::move(descriptors);
     return features;
 }
 

@@ -13,8 +13,10 @@
 #include "mfpc/core/cloud_io.hpp"
 #include "mfpc/core/error.hpp"
 #include "mfpc/core/text_file.hpp"
+#include "mfpc/index/neighbor_grid.hpp"
 #include "mfpc/kernels/shot.hpp"
 #include "mfpc/recognition/evaluation.hpp"
+#include "mfpc/recognition/features.hpp"
 #include "mfpc/recognition/grouping.hpp"
 #include "mfpc/recognition/model.hpp"
 #include "mfpc/recognition/params.hpp"
@@ -92,6 +94,42 @@ TEST(FitRigid, ThreePairsGiveUmeyamasPose)
         if (kind == 0) {
             EXPECT_LT((fitted.linear() - truth.linear()).cwiseAbs().maxCoeff(), 1e-5f);
         }
+    }
+}
+
+// Keypoints whose frame or descriptor is undefined (here: lone points, with no neighbourhood) are
+// counted and dropped, and the others keep their own keypoint, frame and descriptor: the same as
+// describing the valid ones alone.
+TEST(DescribeKeypoints, DropsInvalidKeypointsAndKeepsTheRestAligned)
+{
+    std::vector<Point> surface;
+    for (int i = 0; i < 50; ++i)
+        for (int j = 0; j < 50; ++j) {
+            const float x = 0.002f * float(i), y = 0.002f * float(j);
+            surface.emplace_back(x, y, 1.0f + 0.3f * x * x + 0.1f * x * y);
+        }
+    std::vector<std::uint32_t> all, valid;
+    for (std::uint32_t k = 5; k < 2500; k += 211) {
+        if (all.size() % 3 == 1) {  // a lone point, a metre from the patch
+            all.push_back(std::uint32_t(surface.size()));
+            surface.emplace_back(1.0f + float(all.size()), 0.0f, 1.0f);
+        }
+        all.push_back(k);
+        valid.push_back(k);
+    }
+    const NeighborGrid grid(surface, normal_grid_cell);
+    const FeatureParams params;
+    const Features mixed = describe_keypoints(surface, all, grid, params);
+    const Features alone = describe_keypoints(surface, valid, grid, params);
+    ASSERT_EQ(alone.invalid, 0u);
+    EXPECT_EQ(mixed.candidates, all.size());
+    EXPECT_EQ(mixed.invalid, all.size() - valid.size());
+    ASSERT_EQ(mixed.size(), valid.size());
+    EXPECT_EQ(mixed.frames.size(), valid.size());
+    EXPECT_EQ(mixed.descriptors, alone.descriptors);
+    for (std::size_t i = 0; i < valid.size(); ++i) {
+        EXPECT_EQ(mixed.keypoints[i], surface[valid[i]]);
+        EXPECT_EQ(mixed.frames[i], alone.frames[i]);
     }
 }
 
