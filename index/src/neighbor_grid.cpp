@@ -174,21 +174,25 @@ float NeighborGrid::shell_margin(const Point& center, const Eigen::Vector3i& c, 
            1e-5f * (center.cwiseAbs().maxCoeff() + cell_size_);
 }
 
+bool NeighborGrid::search_box(const Point& center, float radius, Eigen::Vector3i& lo, Eigen::Vector3i& hi) const
+{
+    if (points_.empty() || !(radius >= 0.0f) || !center.allFinite()) return false;
+    // Clamped in float before the int conversion, so a far-away centre cannot overflow it.
+    const Eigen::Vector3f lo_f = ((center.array() - radius) * inverse_cell_).floor();
+    const Eigen::Vector3f hi_f = ((center.array() + radius) * inverse_cell_).floor();
+    lo = lo_f.cwiseMax(min_cell_.cast<float>()).cwiseMin(max_cell_.cast<float>() + Eigen::Vector3f::Ones()).cast<int>();
+    hi = hi_f.cwiseMin(max_cell_.cast<float>()).cwiseMax(min_cell_.cast<float>() - Eigen::Vector3f::Ones()).cast<int>();
+    return !(hi.array() < lo.array()).any();
+}
+
 void NeighborGrid::radius_search(const Point& center, float radius, std::vector<std::uint32_t>& indices,
                                  std::vector<float>& squared_distances) const
 {
     indices.clear();
     squared_distances.clear();
-    if (points_.empty() || !(radius >= 0.0f)) return;
+    Eigen::Vector3i lo, hi;
+    if (!search_box(center, radius, lo, hi)) return;
     const float radius2 = radius * radius;
-    // Clamped in float before the int conversion, so a far-away centre cannot overflow it.
-    const Eigen::Vector3f lo_f = ((center.array() - radius) * inverse_cell_).floor();
-    const Eigen::Vector3f hi_f = ((center.array() + radius) * inverse_cell_).floor();
-    const Eigen::Vector3i lo =
-        lo_f.cwiseMax(min_cell_.cast<float>()).cwiseMin(max_cell_.cast<float>() + Eigen::Vector3f::Ones()).cast<int>();
-    const Eigen::Vector3i hi =
-        hi_f.cwiseMin(max_cell_.cast<float>()).cwiseMax(min_cell_.cast<float>() - Eigen::Vector3f::Ones()).cast<int>();
-    if ((hi.array() < lo.array()).any()) return;
     // The candidates' ranges first, so the outputs grow once. Then every candidate is written and
     // only those within the radius are kept (the count moves past them): a branch per candidate,
     // taken about half the time on a surface, was mispredicted often enough to cost a quarter of
@@ -224,39 +228,155 @@ Neighborhoods NeighborGrid::radius_neighborhoods(std::span<const Point> centers,
 {
     if (!(radius > 0.0f) || !std::isfinite(radius))
         throw Error("neighbour grid", "neighbourhood radius must be a positive number, got " + std::to_string(radius));
-    // Fixed chunks of centres, each searched into its own lists, then laid end to end in chunk
-    // order: the same packing at any thread count.
-    constexpr std::size_t chunk = 64;
-    struct Part {
-        std::vector<std::uint32_t> indices;
-        std::vector<float> squared_distances;
-    };
-    std::vector<Part> parts((centers.size() + chunk - 1) / chunk);
     Neighborhoods out;
     out.surface = points_;
     out.centers.assign(centers.begin(), centers.end());
     out.radius = radius;
     out.offsets.assign(centers.size() + 1, 0);
-    tbb::parallel_for(std::size_t(0), parts.size(), [&](std::size_t c) {
+    const float radius2 = radius * radius;
+
+    // Centres are grouped by the lowest cell of their search box, and a group reads the rows of
+    // the boxes' union once, into coordinate arrays: the row lookups, most of a search's cost,
+    // are shared (keypoints a centimetre apart share a box of 4 cm cells), and the distance loop
+    // vectorises. Each centre then takes, row by row in radius_search's order, the candidates of
+    // its own box, with radius_search's arithmetic and test: the same neighbours, in the same
+    // order, with the same squared distances.
+    struct Member {
+        std::uint64_t key;  // the box's lowest cell, packed
+        std::uint32_t center;
+        Eigen::Vector3i hi;
+    };
+    std::vector<Member> members;
+    members.reserve(centers.size());
+    for (std::uint32_t c = 0; c < centers.size(); ++c) {
+        Eigen::Vector3i lo, hi;
+        if (!search_box(centers[c], radius, lo, hi)) continue;
+        // lo lies in min_cell_ .. max_cell_ + 1, and the extent is below 2^21 - 1 cells per axis.
+        const Eigen::Vector3i d = lo - min_cell_;
+        const std::uint64_t key = (std::uint64_t(d.z()) << (2 * axis_bits)) | (std::uint64_t(d.y()) << axis_bits) |
+                                  std::uint64_t(d.x());
+        members.push_back({key, c, hi});
+    }
+    tbb::parallel_sort(members.begin(), members.end(),
+                       [](const Member& a, const Member& b) { return a.key != b.key ? a.key < b.key : a.center < b.center; });
+    std::vector<std::uint32_t> groups;  // start of each run of equal keys, plus the end
+    for (std::uint32_t i = 0; i < members.size(); ++i)
+        if (i == 0 || members[i].key != members[i - 1].key) groups.push_back(i);
+    groups.push_back(std::uint32_t(members.size()));
+
+    // Fixed chunks of groups, each searched into its own lists, then copied to the centres' places:
+    // the same result at any thread count.
+    constexpr std::size_t chunk = 16;
+    struct Part {
         std::vector<std::uint32_t> indices;
         std::vector<float> squared_distances;
-        Part& part = parts[c];
-        for (std::size_t i = c * chunk; i < std::min(centers.size(), (c + 1) * chunk); ++i) {
-            radius_search(centers[i], radius, indices, squared_distances);
-            part.indices.insert(part.indices.end(), indices.begin(), indices.end());
-            part.squared_distances.insert(part.squared_distances.end(), squared_distances.begin(),
-                                          squared_distances.end());
-            out.offsets[i + 1] = indices.size();  // a count until the prefix sum below
+        std::vector<std::pair<std::uint32_t, std::size_t>> starts;  // (centre, first entry)
+    };
+    std::vector<Part> parts((groups.size() - 1 + chunk - 1) / chunk);
+    tbb::parallel_for(std::size_t(0), parts.size(), [&](std::size_t p) {
+        struct Span {  // a row of the union, in the gathered candidates
+            int y, z;
+            std::uint32_t first_cell, last_cell;  // its cells in `cells`
+            std::uint32_t end;                    // its candidates end here (they start at its first cell's)
+        };
+        std::vector<Span> rows;
+        std::vector<std::pair<int, std::uint32_t>> cells;  // (x, first candidate), row by row
+        std::vector<float> xs, ys, zs, d2s;
+        std::vector<std::uint32_t> ids;
+        Part& part = parts[p];
+        const std::size_t group_end = std::min(groups.size() - 1, (p + 1) * chunk);
+        for (std::size_t g = p * chunk; g < group_end; ++g) {
+            const std::uint32_t first = groups[g], last = groups[g + 1];
+            const Member& leader = members[first];
+            const Eigen::Vector3i lo(int(leader.key & ((1u << axis_bits) - 1)) + min_cell_.x(),
+                                     int((leader.key >> axis_bits) & ((1u << axis_bits) - 1)) + min_cell_.y(),
+                                     int(leader.key >> (2 * axis_bits)) + min_cell_.z());
+            Eigen::Vector3i hi = leader.hi;
+            for (std::uint32_t m = first + 1; m < last; ++m) hi = hi.cwiseMax(members[m].hi);
+            rows.clear(), cells.clear(), xs.clear(), ys.clear(), zs.clear(), ids.clear();
+            for (int z = lo.z(); z <= hi.z(); ++z) {
+                for (int y = lo.y(); y <= hi.y(); ++y) {
+                    const Row* row = find_row(y, z);
+                    if (row == nullptr) continue;
+                    const auto row_first = cell_x_.begin() + row->cell_begin;
+                    const auto row_last = cell_x_.begin() + row->cell_end;
+                    const auto c0 = std::lower_bound(row_first, row_last, lo.x());
+                    const auto c1 = std::upper_bound(c0, row_last, hi.x());
+                    if (c0 == c1) continue;
+                    const std::uint32_t first_cell = std::uint32_t(cells.size());
+                    for (auto c = c0; c != c1; ++c) {
+                        cells.emplace_back(*c, std::uint32_t(ids.size()));
+                        const std::size_t cell = std::size_t(c - cell_x_.begin());
+                        for (std::uint32_t i = cell_begin_[cell]; i < cell_begin_[cell + 1]; ++i) {
+                            xs.push_back(ordered_points_[i].x());
+                            ys.push_back(ordered_points_[i].y());
+                            zs.push_back(ordered_points_[i].z());
+                            ids.push_back(ordered_indices_[i]);
+                        }
+                    }
+                    rows.push_back({y, z, first_cell, std::uint32_t(cells.size()), std::uint32_t(ids.size())});
+                }
+            }
+            for (std::uint32_t m = first; m < last; ++m) {
+                const Member& member = members[m];
+                const Point& center = centers[member.center];
+                const float cx = center.x(), cy = center.y(), cz = center.z();
+                part.starts.emplace_back(member.center, part.indices.size());
+                for (const Span& row : rows) {
+                    if (row.y > member.hi.y() || row.z > member.hi.z()) continue;
+                    // The row's candidates up to the member's last cell along x.
+                    std::uint32_t end = row.end;
+                    for (std::uint32_t c = row.last_cell; c > row.first_cell && cells[c - 1].first > member.hi.x(); --c)
+                        end = cells[c - 1].second;
+                    const std::uint32_t begin = cells[row.first_cell].second;
+                    // Distances in one loop (it vectorises), then the kept ones packed.
+                    const float* x = xs.data() + begin;
+                    const float* y = ys.data() + begin;
+                    const float* z = zs.data() + begin;
+                    const std::uint32_t count = end - begin;
+                    d2s.resize(count);
+                    float* d2 = d2s.data();
+                    for (std::uint32_t j = 0; j < count; ++j) {
+                        const float dx = x[j] - cx, dy = y[j] - cy, dz = z[j] - cz;
+                        d2[j] = dx * dx + dy * dy + dz * dz;
+                    }
+                    std::size_t found = part.indices.size();
+                    part.indices.resize(found + count);
+                    part.squared_distances.resize(found + count);
+                    std::uint32_t* out_index = part.indices.data();
+                    float* out_d2 = part.squared_distances.data();
+                    const std::uint32_t* id = ids.data() + begin;
+                    for (std::uint32_t j = 0; j < count; ++j) {
+                        out_index[found] = id[j];
+                        out_d2[found] = d2[j];
+                        found += d2[j] < radius2;
+                    }
+                    part.indices.resize(found);
+                    part.squared_distances.resize(found);
+                }
+            }
         }
     });
+    // Counts into offsets, then every centre's list copied to its place.
+    for (const Part& part : parts)
+        for (std::size_t s = 0; s < part.starts.size(); ++s) {
+            const std::size_t end = s + 1 < part.starts.size() ? part.starts[s + 1].second : part.indices.size();
+            out.offsets[part.starts[s].first + 1] = end - part.starts[s].second;
+        }
     for (std::size_t i = 0; i < centers.size(); ++i) out.offsets[i + 1] += out.offsets[i];
     out.indices.resize(out.offsets.back());
     out.squared_distances.resize(out.offsets.back());
-    tbb::parallel_for(std::size_t(0), parts.size(), [&](std::size_t c) {
-        const std::size_t at = out.offsets[c * chunk];
-        std::copy(parts[c].indices.begin(), parts[c].indices.end(), out.indices.begin() + std::ptrdiff_t(at));
-        std::copy(parts[c].squared_distances.begin(), parts[c].squared_distances.end(),
-                  out.squared_distances.begin() + std::ptrdiff_t(at));
+    tbb::parallel_for(std::size_t(0), parts.size(), [&](std::size_t p) {
+        const Part& part = parts[p];
+        for (std::size_t s = 0; s < part.starts.size(); ++s) {
+            const auto [center, begin] = part.starts[s];
+            const std::size_t end = s + 1 < part.starts.size() ? part.starts[s + 1].second : part.indices.size();
+            const auto at = std::ptrdiff_t(out.offsets[center]);
+            std::copy(part.indices.begin() + std::ptrdiff_t(begin), part.indices.begin() + std::ptrdiff_t(end),
+                      out.indices.begin() + at);
+            std::copy(part.squared_distances.begin() + std::ptrdiff_t(begin),
+                      part.squared_distances.begin() + std::ptrdiff_t(end), out.squared_distances.begin() + at);
+        }
     });
     return out;
 }

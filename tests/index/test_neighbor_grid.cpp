@@ -105,6 +105,37 @@ TEST(NeighborGrid, NeighborhoodsAreTheRadiusSearchesOfEachCentre)
     EXPECT_EQ(grid.radius_neighborhoods({}, radius).size(), 0u);
 }
 
+// Centres are searched in groups that share their rows: each must still get exactly its own
+// radius_search, for radii below, at and beyond the cell size, centres on and off the points (and
+// outside the grid), a NaN centre (no neighbours) and centres given twice.
+TEST(NeighborGrid, GroupedNeighborhoodsEqualEachCentresSearchAtAnyRadius)
+{
+    const auto points = test::random_points(20000, 17);
+    std::mt19937 rng(8);
+    std::uniform_real_distribution<float> coordinate(-1.3f, 1.3f);
+    std::vector<Point> centers;
+    for (std::size_t q = 0; q < points.size(); q += 37) centers.push_back(points[q]);
+    for (int q = 0; q < 300; ++q) centers.emplace_back(coordinate(rng), coordinate(rng), coordinate(rng));
+    centers.push_back(centers[5]);
+    centers.emplace_back(std::numeric_limits<float>::quiet_NaN(), 0.0f, 0.0f);
+    const NeighborGrid grid(points, 0.08f);
+    std::vector<std::uint32_t> expected;
+    std::vector<float> expected_d2;
+    for (const float radius : {0.013f, 0.05f, 0.08f, 0.11f, 0.3f}) {
+        const Neighborhoods hoods = grid.radius_neighborhoods(centers, radius);
+        ASSERT_EQ(hoods.size(), centers.size());
+        for (std::size_t c = 0; c < centers.size(); ++c) {
+            grid.radius_search(centers[c], radius, expected, expected_d2);
+            const auto got = hoods.indices_of(c);
+            const auto got_d2 = hoods.squared_distances_of(c);
+            ASSERT_TRUE(std::equal(expected.begin(), expected.end(), got.begin(), got.end()))
+                << "radius " << radius << " centre " << c;
+            ASSERT_TRUE(std::equal(expected_d2.begin(), expected_d2.end(), got_d2.begin(), got_d2.end()));
+        }
+        EXPECT_TRUE(hoods.indices_of(centers.size() - 1).empty());
+    }
+}
+
 TEST(NeighborGrid, KnnSearchMatchesBruteForceIncludingTies)
 {
     // Lattice-snapped points make exact distance ties, which must go to the lower index.

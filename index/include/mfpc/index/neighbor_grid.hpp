@@ -98,6 +98,9 @@ private:
         return (std::uint64_t(d.z()) * rows_per_slice_ + std::uint64_t(d.y())) * row_length_ + std::uint64_t(d.x());
     }
     const Row* find_row(int y, int z) const;
+    // The cells radius_search reads around `center`: lo..hi, within the occupied cells and one
+    // beyond. False when there are none (or the centre or radius is not a number).
+    bool search_box(const Point& center, float radius, Eigen::Vector3i& lo, Eigen::Vector3i& hi) const;
     // Points of row (y, z) whose cells lie in x0..x1: the range [begin, end) of ordered_points_.
     bool row_range(int y, int z, int x0, int x1, std::uint32_t& begin, std::uint32_t& end) const;
     // Calls visit(begin, end) for the point ranges of the cells at Chebyshev distance `ring` from
