@@ -133,12 +133,19 @@ const NeighborGrid::Row* NeighborGrid::find_row(int y, int z) const
 
 bool NeighborGrid::row_range(int y, int z, int x0, int x1, std::uint32_t& begin, std::uint32_t& end) const
 {
-    const Row* row = find_row(y, z);
-    if (row == nullptr) return false;
+    return cells_range(find_row(y, z), x0, x1, begin, end);
+}
+
+bool NeighborGrid::cells_range(const Row* row, int x0, int x1, std::uint32_t& begin, std::uint32_t& end) const
+{
+    if (row == nullptr || x1 < x0) return false;
     const auto first = cell_x_.begin() + row->cell_begin;
     const auto last = cell_x_.begin() + row->cell_end;
     const auto lo = std::lower_bound(first, last, x0);
-    const auto hi = std::upper_bound(lo, last, x1);
+    // The end by a forward scan: queries span a few cells, and each cell it passes holds points
+    // the caller reads anyway, so this costs less than a second binary search.
+    auto hi = lo;
+    while (hi != last && *hi <= x1) ++hi;
     if (lo == hi) return false;
     begin = cell_begin_[std::size_t(lo - cell_x_.begin())];
     end = cell_begin_[std::size_t(hi - cell_x_.begin())];
@@ -502,12 +509,13 @@ bool NeighborGrid::nearest(const Point& center, float radius, std::uint32_t& ind
     // The centre's own cell first: on a surface its nearest point is usually a fraction of a cell
     // away, and then only the few cells within that distance remain, not whole shells around it
     // (ICP and verification ask this of every model point, many times over).
+    const Row* own_row = find_row(c.y(), c.z());
     std::uint32_t begin = 0, end = 0;
-    if (row_range(c.y(), c.z(), c.x(), c.x(), begin, end)) consider(begin, end);
+    if (cells_range(own_row, c.x(), c.x(), begin, end)) consider(begin, end);
     // Widened by a relative 1e-5, as shell_margin is narrowed: floor(p / cell) in float may put a
     // point a rounding error outside its nominal cell.
-    const float reach = (found ? std::sqrt(best) : radius) * (1.0f + 1e-5f) +
-                        1e-5f * (center.cwiseAbs().maxCoeff() + cell_size_);
+    const float slack = 1e-5f * (center.cwiseAbs().maxCoeff() + cell_size_);
+    const float reach = (found ? std::sqrt(best) : radius) * (1.0f + 1e-5f) + slack;
     // Clamped to the occupied cells in float before the int conversion, as in radius_search.
     const Eigen::Vector3i lo = ((center.array() - reach) * inverse_cell_)
                                    .floor()
@@ -519,11 +527,20 @@ bool NeighborGrid::nearest(const Point& center, float radius, std::uint32_t& ind
                                    .min(max_cell_.cast<float>().array())
                                    .max(min_cell_.cast<float>().array() - 1.0f)
                                    .cast<int>();
+    // How far the centre lies from cells y (or z) along that axis, less the slack.
+    auto gap = [&](int cell, float coordinate) {
+        const float below = float(cell) * cell_size_ - coordinate, above = coordinate - float(cell + 1) * cell_size_;
+        return std::max(0.0f, std::max(below, above) - slack);
+    };
     for (int z = lo.z(); z <= hi.z(); ++z) {
+        const float gap_z = gap(z, center.z());
         for (int y = lo.y(); y <= hi.y(); ++y) {
+            // A row no nearer than the best so far holds no nearer point: skipped unlooked.
+            const float gap_y = gap(y, center.y());
+            if (found && gap_y * gap_y + gap_z * gap_z > best) continue;
             if (y == c.y() && z == c.z()) {  // the centre's row, less its cell
-                if (row_range(y, z, lo.x(), c.x() - 1, begin, end)) consider(begin, end);
-                if (row_range(y, z, c.x() + 1, hi.x(), begin, end)) consider(begin, end);
+                if (cells_range(own_row, lo.x(), c.x() - 1, begin, end)) consider(begin, end);
+                if (cells_range(own_row, c.x() + 1, hi.x(), begin, end)) consider(begin, end);
             } else if (row_range(y, z, lo.x(), hi.x(), begin, end)) {
                 consider(begin, end);
             }

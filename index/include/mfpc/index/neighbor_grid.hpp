@@ -103,6 +103,8 @@ private:
     bool search_box(const Point& center, float radius, Eigen::Vector3i& lo, Eigen::Vector3i& hi) const;
     // Points of row (y, z) whose cells lie in x0..x1: the range [begin, end) of ordered_points_.
     bool row_range(int y, int z, int x0, int x1, std::uint32_t& begin, std::uint32_t& end) const;
+    // The same in a row already found (none when null, or when x1 < x0).
+    bool cells_range(const Row* row, int x0, int x1, std::uint32_t& begin, std::uint32_t& end) const;
     // Calls visit(begin, end) for the point ranges of the cells at Chebyshev distance `ring` from
     // cell c: rows on the shell's faces whole, the others at their two ends.
     template <class Visit>
