@@ -157,26 +157,34 @@ void board_frame(const Point& keypoint, const NeighborGrid& surface, std::span<c
     // A NaN keypoint has no neighbourhood (and PCL asserts on it).
     if (!keypoint.allFinite()) return set_undefined(frame);
     const auto points = surface.points();
-    auto neighbours = [&](float radius, std::vector<std::uint32_t>& indices, std::vector<float>& squared_distances) {
+    struct Found {
+        std::span<const std::uint32_t> indices;
+        std::span<const float> squared_distances;
+    };
+    auto neighbours = [&](float radius, std::vector<std::uint32_t>& indices,
+                          std::vector<float>& squared_distances) -> Found {
+        // The support's own lists when they are exactly these: read in place, not copied.
+        if (support && radius == support->radius) return {support->indices_of(at), support->squared_distances_of(at)};
         if (support) {
             support->within(at, radius, indices, squared_distances);
         } else {
             surface.radius_search(keypoint, radius, indices, squared_distances);
         }
+        return {indices, squared_distances};
     };
 
     // z axis: the normal of the least-squares plane through the neighbours.
-    neighbours(params.radius, scratch.indices, scratch.squared_distances);
-    if (scratch.indices.size() < 6) return set_undefined(frame);
+    const Found plane = neighbours(params.radius, scratch.indices, scratch.squared_distances);
+    if (plane.indices.size() < 6) return set_undefined(frame);
     // PCL takes the last right singular vector of the centred float points (JacobiSVD). That is
     // the smallest eigenvector of their scatter matrix, which we form in double with a two-pass
     // mean: the same axis, to float rounding, independent of the neighbour order and without
     // PCL's per-keypoint heap matrices.
     Eigen::Vector3d mean = Eigen::Vector3d::Zero();
-    for (const std::uint32_t n : scratch.indices) mean += points[n].cast<double>();
-    mean /= double(scratch.indices.size());
+    for (const std::uint32_t n : plane.indices) mean += points[n].cast<double>();
+    mean /= double(plane.indices.size());
     Eigen::Matrix3d scatter = Eigen::Matrix3d::Zero();
-    for (const std::uint32_t n : scratch.indices) {
+    for (const std::uint32_t n : plane.indices) {
         const Eigen::Vector3d d = points[n].cast<double>() - mean;
         scatter.noalias() += d * d.transpose();
     }
@@ -190,7 +198,7 @@ void board_frame(const Point& keypoint, const NeighborGrid& surface, std::span<c
     // Sign of z: towards the mean of the neighbours' normals. PCL sums every normal, so one NaN
     // normal makes the mean NaN and leaves the sign to the SVD; we skip undefined normals.
     Eigen::Vector3d normal_sum = Eigen::Vector3d::Zero();
-    for (const std::uint32_t n : scratch.indices) {
+    for (const std::uint32_t n : plane.indices) {
         if (normals[n].allFinite()) normal_sum += normals[n].cast<double>();
     }
     if (z.cast<double>().dot(normal_sum) < 0.0) z = -z;
@@ -199,10 +207,11 @@ void board_frame(const Point& keypoint, const NeighborGrid& surface, std::span<c
     // from z, taken from the margin ring when it has any point.
     const bool own_tangent_support = params.tangent_radius != 0.0f && params.tangent_radius != params.radius;
     const float tangent_radius = own_tangent_support ? params.tangent_radius : params.radius;
-    if (own_tangent_support)
-        neighbours(tangent_radius, scratch.tangent_indices, scratch.tangent_squared_distances);
-    const auto& indices = own_tangent_support ? scratch.tangent_indices : scratch.indices;
-    const auto& squared_distances = own_tangent_support ? scratch.tangent_squared_distances : scratch.squared_distances;
+    const Found tangent =
+        own_tangent_support ? neighbours(tangent_radius, scratch.tangent_indices, scratch.tangent_squared_distances)
+                            : plane;
+    const auto indices = tangent.indices;
+    const auto squared_distances = tangent.squared_distances;
     // The float expression and the strict ">" of PCL, so points on the ring boundary fall alike.
     const float margin2 = params.margin_threshold * params.margin_threshold * (tangent_radius * tangent_radius);
 
