@@ -10,6 +10,7 @@
 
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
+#include <tbb/parallel_reduce.h>
 #include <tbb/parallel_sort.h>
 
 #include "mfpc/core/error.hpp"
@@ -45,26 +46,33 @@ NeighborGrid::NeighborGrid(std::span<const Point> points, float cell_size)
         throw Error("neighbour grid", "more than 2^32 - 1 points");
     if (points.empty()) return;
 
-    std::vector<Eigen::Vector3i> cells(points.size());
-    tbb::parallel_for(tbb::blocked_range<std::size_t>(0, points.size(), 4096), [&](const auto& range) {
-        for (std::size_t i = range.begin(); i < range.end(); ++i) {
-            const Eigen::Vector3f q = points[i] * inverse_cell_;
-            // Also false for NaN.
-            if (!(std::abs(q.x()) <= 1e9f && std::abs(q.y()) <= 1e9f && std::abs(q.z()) <= 1e9f))
-                throw Error("neighbour grid", "point " + std::to_string(i) + " is not finite or too far out");
-            cells[i] = Eigen::Vector3i(floor_to<int>(q.x()), floor_to<int>(q.y()), floor_to<int>(q.z()));
-        }
-    });
-    int lo[3] = {cells[0].x(), cells[0].y(), cells[0].z()};
-    int hi[3] = {lo[0], lo[1], lo[2]};
-    for (const Eigen::Vector3i& c : cells) {
-        for (int a = 0; a < 3; ++a) {
-            lo[a] = std::min(lo[a], c[a]);
-            hi[a] = std::max(hi[a], c[a]);
-        }
-    }
-    min_cell_ = Eigen::Vector3i(lo[0], lo[1], lo[2]);
-    max_cell_ = Eigen::Vector3i(hi[0], hi[1], hi[2]);
+    // Each point's cell is recomputed where it is needed (three floors) rather than stored: a cell
+    // array was 12 bytes a point of fresh memory to fill and read back, more than the floors cost.
+    const auto cell_of = [inverse = inverse_cell_](const Point& p) {
+        const Eigen::Vector3f q = p * inverse;
+        return Eigen::Vector3i(floor_to<int>(q.x()), floor_to<int>(q.y()), floor_to<int>(q.z()));
+    };
+    struct Bounds {
+        Eigen::Vector3i lo = Eigen::Vector3i::Constant(std::numeric_limits<int>::max());
+        Eigen::Vector3i hi = Eigen::Vector3i::Constant(std::numeric_limits<int>::min());
+    };
+    const Bounds bounds = tbb::parallel_reduce(
+        tbb::blocked_range<std::size_t>(0, points.size(), 4096), Bounds{},
+        [&](const auto& range, Bounds b) {
+            for (std::size_t i = range.begin(); i < range.end(); ++i) {
+                const Eigen::Vector3f q = points[i] * inverse_cell_;
+                // Also false for NaN.
+                if (!(std::abs(q.x()) <= 1e9f && std::abs(q.y()) <= 1e9f && std::abs(q.z()) <= 1e9f))
+                    throw Error("neighbour grid", "point " + std::to_string(i) + " is not finite or too far out");
+                const Eigen::Vector3i c = cell_of(points[i]);
+                b.lo = b.lo.cwiseMin(c);
+                b.hi = b.hi.cwiseMax(c);
+            }
+            return b;
+        },
+        [](const Bounds& a, const Bounds& b) { return Bounds{a.lo.cwiseMin(b.lo), a.hi.cwiseMax(b.hi)}; });
+    min_cell_ = bounds.lo;
+    max_cell_ = bounds.hi;
     const Eigen::Vector3i extent = max_cell_ - min_cell_;
     if (extent.maxCoeff() >= (1 << axis_bits) - 1)
         throw Error("neighbour grid", "the cloud spans more than 2^21 cells of " + std::to_string(cell_size) +
@@ -80,7 +88,7 @@ NeighborGrid::NeighborGrid(std::span<const Point> points, float cell_size)
     const int key_bits = int(std::bit_width(cell_count - 1));
     std::vector<std::uint64_t> keys;
     detail::sort_by_key(
-        points.size(), key_bits, [&](std::size_t i) { return cell_key(cells[i]); }, ordered_indices_, keys);
+        points.size(), key_bits, [&](std::size_t i) { return cell_key(cell_of(points[i])); }, ordered_indices_, keys);
     // Each cell's points are one run of the sorted order, starting where the key changes.
     for (std::size_t i = 0; i < keys.size(); ++i) {
         if (i == 0 || keys[i] != keys[i - 1]) cell_begin_.push_back(std::uint32_t(i));
@@ -96,7 +104,7 @@ NeighborGrid::NeighborGrid(std::span<const Point> points, float cell_size)
     std::vector<std::uint64_t> row_keys(cell_begin_.size());  // per cell
     cell_x_.resize(cell_begin_.size());
     for (std::size_t c = 0; c < cell_begin_.size(); ++c) {
-        const Eigen::Vector3i& cell = cells[ordered_indices_[cell_begin_[c]]];
+        const Eigen::Vector3i cell = cell_of(ordered_points_[cell_begin_[c]]);
         row_keys[c] = std::uint64_t(cell.z() - min_cell_.z()) * rows_per_slice_ + std::uint64_t(cell.y() - min_cell_.y());
         if (c == 0 || row_keys[c] != row_keys[c - 1]) ++row_count;
         cell_x_[c] = cell.x();
