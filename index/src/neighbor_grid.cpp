@@ -263,7 +263,9 @@ Neighborhoods NeighborGrid::radius_neighborhoods(std::span<const Point> centers,
     };
     std::vector<Member> members;
     members.reserve(centers.size());
-    for (std::uint32_t c = 0; c < centers.size(); ++c) {
+    if (centers.size() >= std::numeric_limits<std::uint32_t>::max())
+        throw Error("neighbour grid", "more than 2^32 - 1 neighbourhood centres");
+    for (std::uint32_t c = 0; c < std::uint32_t(centers.size()); ++c) {
         Eigen::Vector3i lo, hi;
         if (!search_box(centers[c], radius, lo, hi)) continue;
         // lo lies in min_cell_ .. max_cell_ + 1, and the extent is below 2^21 - 1 cells per axis.
@@ -535,17 +537,20 @@ bool NeighborGrid::nearest(const Point& center, float radius, std::uint32_t& ind
                                    .min(max_cell_.cast<float>().array())
                                    .max(min_cell_.cast<float>().array() - 1.0f)
                                    .cast<int>();
-    // How far the centre lies from cells y (or z) along that axis, less the slack.
+    // How far the centre lies from cells y (or z) along that axis.
     auto gap = [&](int cell, float coordinate) {
         const float below = float(cell) * cell_size_ - coordinate, above = coordinate - float(cell + 1) * cell_size_;
-        return std::max(0.0f, std::max(below, above) - slack);
+        return std::max(0.0f, std::max(below, above));
     };
     for (int z = lo.z(); z <= hi.z(); ++z) {
         const float gap_z = gap(z, center.z());
         for (int y = lo.y(); y <= hi.y(); ++y) {
-            // A row no nearer than the best so far holds no nearer point: skipped unlooked.
+            // A row farther than the best so far holds no nearer point: skipped unlooked. "Farther"
+            // with the box's own widening (relative to the distance, and to the coordinates), since
+            // a point's cell and a cell's edge each round at the magnitude of the coordinates.
             const float gap_y = gap(y, center.y());
-            if (found && gap_y * gap_y + gap_z * gap_z > best) continue;
+            const float limit = std::sqrt(best) * (1.0f + 1e-5f) + slack;
+            if (found && gap_y * gap_y + gap_z * gap_z > limit * limit) continue;
             if (y == c.y() && z == c.z()) {  // the centre's row, less its cell
                 if (cells_range(own_row, lo.x(), c.x() - 1, begin, end)) consider(begin, end);
                 if (cells_range(own_row, c.x() + 1, hi.x(), begin, end)) consider(begin, end);

@@ -116,7 +116,15 @@ TEST(NeighborGrid, GroupedNeighborhoodsEqualEachCentresSearchAtAnyRadius)
     std::vector<Point> centers;
     for (std::size_t q = 0; q < points.size(); q += 37) centers.push_back(points[q]);
     for (int q = 0; q < 300; ++q) centers.emplace_back(coordinate(rng), coordinate(rng), coordinate(rng));
+    // Clusters of centres a few millimetres apart, so groups hold many centres whose boxes share
+    // their lowest cell but not their highest.
+    for (int cluster = 0; cluster < 20; ++cluster) {
+        const Point base(coordinate(rng), coordinate(rng), coordinate(rng));
+        for (int i = 0; i < 27; ++i)
+            centers.push_back(base + 0.004f * Point(float(i % 3), float(i / 3 % 3), float(i / 9)));
+    }
     centers.push_back(centers[5]);
+    centers.emplace_back(std::numeric_limits<float>::infinity(), 0.0f, 0.0f);
     centers.emplace_back(std::numeric_limits<float>::quiet_NaN(), 0.0f, 0.0f);
     const NeighborGrid grid(points, 0.08f);
     std::vector<std::uint32_t> expected;
@@ -133,6 +141,7 @@ TEST(NeighborGrid, GroupedNeighborhoodsEqualEachCentresSearchAtAnyRadius)
             ASSERT_TRUE(std::equal(expected_d2.begin(), expected_d2.end(), got_d2.begin(), got_d2.end()));
         }
         EXPECT_TRUE(hoods.indices_of(centers.size() - 1).empty());
+        EXPECT_TRUE(hoods.indices_of(centers.size() - 2).empty());
     }
 }
 
@@ -248,6 +257,18 @@ TEST(NeighborGrid, NearestBreaksTiesByIndexOnCellFaces)
             expect_nearest_as_brute_force(grid, points, center, radius, q);
         }
     }
+}
+
+// Two points 819 m either side of the centre, at exactly equal distances: the lower index wins.
+// The far point's cell and its cell's edge both round at the magnitude of its coordinates (its edge
+// lies above the point itself), so a row skipped for lying farther than the best so far must allow
+// for that rounding, as the search box does.
+TEST(NeighborGrid, NearestKeepsTheTieInARowThatRoundsAway)
+{
+    const float far = 13425049.0f / 16384.0f;
+    const std::vector<Point> points = {Point(0.0f, far, 0.0f), Point(0.0f, -far, 0.0f)};
+    const NeighborGrid grid(points, 0.1f);
+    expect_nearest_as_brute_force(grid, points, Point(0.0f, 0.0f, 0.0f), 1000.0f, 0);
 }
 
 // Outliers metres from a millimetre-cell patch: their k nearest lie thousands of shells away, which
