@@ -97,8 +97,9 @@ using Int4 = std::int32_t __attribute__((vector_size(16)));
 
 // atan2(y, x) moved into [0, 2 pi), four at a time: the polynomial on the octant's t = min / max in
 // [0, 1], reflected into place. Within a few 1e-7 rad of libm's, which cost the frames a third of
-// their time; and in lanes, since one at a time its latency was most of the rest. A zero offset
-// divides 0 by the smallest normal float, so there is no branch.
+// their time; and in lanes, since one at a time its latency was most of the rest. The divisor is at
+// least the smallest normal float, so there is no branch (a zero offset gives 0 / that; only
+// subnormal offsets, far below any real one, get a t off the ratio).
 inline Float4 turn_angle(Float4 y, Float4 x)
 {
     const Float4 ax = std::bit_cast<Float4>(std::bit_cast<Int4>(x) & 0x7fffffff);
@@ -111,7 +112,8 @@ inline Float4 turn_angle(Float4 y, Float4 x)
     for (std::size_t i = 1; i < std::size(detail::atan_fit); ++i) p = p * s + float(detail::atan_fit[i]);
     Float4 a = t * p;
     a = ay > ax ? 0.5f * std::numbers::pi_v<float> - a : a;
-    a = x < 0.0f ? std::numbers::pi_v<float> - a : a;
+    // By the sign bit, as atan2 (the angle of (+0, -0) is pi).
+    a = std::bit_cast<Int4>(x) < 0 ? std::numbers::pi_v<float> - a : a;
     return y < 0.0f ? two_pi - a : a;
 }
 

@@ -54,7 +54,7 @@ TEST(FitRigid, RecoversAKnownTransform)
 
 // Three pairs take a closed form (RANSAC's samples): it must be the least-squares pose that
 // Umeyama's SVD gives, for exact pairs, noisy ones, pairs whose triangles are mirror images (the
-// best rotation turns the plane over) and collinear scene points (the SVD's answer).
+// best rotation turns the plane over), and collinear scene or model points (the SVD's answer).
 TEST(FitRigid, ThreePairsGiveUmeyamasPose)
 {
     std::mt19937 rng(11);
@@ -79,7 +79,8 @@ TEST(FitRigid, ThreePairsGiveUmeyamasPose)
             from.emplace_back(unit(rng), unit(rng), unit(rng));
             to.push_back(truth * from.back());
         }
-        const int kind = trial % 4;
+        const int kind = trial % 5;
+        if (kind == 4) from[2] = from[0] + 0.25f * (from[1] - from[0]);
         if (kind == 1)
             for (Point& p : to) p += Point(noise(rng), noise(rng), noise(rng));
         if (kind == 2) std::swap(to[1], to[2]);  // mirror image: no rotation maps the triangle exactly
