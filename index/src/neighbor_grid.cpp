@@ -257,9 +257,9 @@ Neighborhoods NeighborGrid::radius_neighborhoods(std::span<const Point> centers,
     // its own box, with radius_search's arithmetic and test: the same neighbours, in the same
     // order, with the same squared distances.
     struct Member {
-        std::uint64_t key;  // the box's lowest cell, packed
+        std::uint64_t key;  // the box's lowest cell, packed (the sort's key)
         std::uint32_t center;
-        Eigen::Vector3i hi;
+        Eigen::Vector3i lo, hi;
     };
     std::vector<Member> members;
     members.reserve(centers.size());
@@ -272,7 +272,7 @@ Neighborhoods NeighborGrid::radius_neighborhoods(std::span<const Point> centers,
         const Eigen::Vector3i d = lo - min_cell_;
         const std::uint64_t key = (std::uint64_t(d.z()) << (2 * axis_bits)) | (std::uint64_t(d.y()) << axis_bits) |
                                   std::uint64_t(d.x());
-        members.push_back({key, c, hi});
+        members.push_back({key, c, lo, hi});
     }
     tbb::parallel_sort(members.begin(), members.end(),
                        [](const Member& a, const Member& b) { return a.key != b.key ? a.key < b.key : a.center < b.center; });
@@ -304,11 +304,8 @@ Neighborhoods NeighborGrid::radius_neighborhoods(std::span<const Point> centers,
         const std::size_t group_end = std::min(groups.size() - 1, (p + 1) * chunk);
         for (std::size_t g = p * chunk; g < group_end; ++g) {
             const std::uint32_t first = groups[g], last = groups[g + 1];
-            const Member& leader = members[first];
-            const Eigen::Vector3i lo(int(leader.key & ((1u << axis_bits) - 1)) + min_cell_.x(),
-                                     int((leader.key >> axis_bits) & ((1u << axis_bits) - 1)) + min_cell_.y(),
-                                     int(leader.key >> (2 * axis_bits)) + min_cell_.z());
-            Eigen::Vector3i hi = leader.hi;
+            const Eigen::Vector3i lo = members[first].lo;
+            Eigen::Vector3i hi = members[first].hi;
             for (std::uint32_t m = first + 1; m < last; ++m) hi = hi.cwiseMax(members[m].hi);
             rows.clear(), cells.clear(), xs.clear(), ys.clear(), zs.clear(), ids.clear();
             for (int z = lo.z(); z <= hi.z(); ++z) {
