@@ -34,11 +34,43 @@ OrganizedNeighbors::OrganizedNeighbors(const PointCloud& cloud, const Camera& ca
         stages_.push_back(make_stage(int(std::min<long>(2L * window, std::numeric_limits<int>::max()))));
 }
 
+bool OrganizedNeighbors::pixel_of(const Point& center, long& u, long& v) const
+{
+    if (!(center.z() > 0.0f) || !center.allFinite()) return false;
+    const double x = camera_.fx * (double(center.x()) / center.z()) + camera_.cx;
+    const double y = camera_.fy * (double(center.y()) / center.z()) + camera_.cy;
+    // Off the image before rounding, so that lround never sees a value past a long.
+    if (!(x > -1.0 && y > -1.0 && x < double(camera_.width) && y < double(camera_.height))) return false;
+    u = std::lround(x);
+    v = std::lround(y);
+    return u >= 0 && v >= 0 && u < long(camera_.width) && v < long(camera_.height);
+}
+
+bool OrganizedNeighbors::inside(const Stage& stage, long u, long v) const
+{
+    return u >= stage.reach && v >= stage.reach && u + stage.reach < long(camera_.width) &&
+           v + stage.reach < long(camera_.height);
+}
+
+double OrganizedNeighbors::outside_bound_squared(const Stage& stage, const Point& center) const
+{
+    // The squared distance from the query to the nearest of the planes x = (a ± δx) z and
+    // y = (b ± δy) z through the sensor; every point outside the window lies beyond one of them.
+    const double z = center.z();
+    const double a = std::abs(double(center.x()) / z), b = std::abs(double(center.y()) / z);
+    const double delta_x = stage.slack / camera_.fx, delta_y = stage.slack / camera_.fy;
+    return z * z * std::min(delta_x * delta_x / (1.0 + (a + delta_x) * (a + delta_x)),
+                            delta_y * delta_y / (1.0 + (b + delta_y) * (b + delta_y)));
+}
+
 OrganizedNeighbors::Stage OrganizedNeighbors::make_stage(int window) const
 {
     // Offsets past the image's extent never land on a pixel: a window wider than the image visits
     // the whole image, and needs no more offsets (nor a product that overflows).
-    Stage stage{window, {}, {}, std::min<long>(window, long(std::max(camera_.width, camera_.height)))};
+    // A point outside the window projects at least window + 1 pixels from the query's pixel, the
+    // query at most half a pixel from it, the point at most max_residual from its own.
+    Stage stage{window, {}, {}, std::min<long>(window, long(std::max(camera_.width, camera_.height))),
+                double(window) + 0.5 - double(camera_.max_residual)};
     for (long dy = -stage.reach; dy <= stage.reach; ++dy)
         for (long dx = -stage.reach; dx <= stage.reach; ++dx) stage.offsets.emplace_back(int(dx), int(dy));
     std::stable_sort(stage.offsets.begin(), stage.offsets.end(), [](const auto& a, const auto& b) {
@@ -84,22 +116,47 @@ void OrganizedNeighbors::search_window(const Stage& stage, std::span<const Point
                                        std::span<std::uint32_t> indices, std::span<float> squared_distances,
                                        std::span<std::uint8_t> settled) const
 {
-    // A point outside the window projects at least window + 1 pixels from the query's pixel, the
-    // query at most half a pixel from it, the point at most max_residual from its own.
-    const double slack = double(stage.window) + 0.5 - double(camera_.max_residual);
-    const double delta_x = slack / camera_.fx, delta_y = slack / camera_.fy;
-    if (slack <= 0.0) return;
+    if (stage.slack <= 0.0) return;
+
+    const long reach = stage.reach;
+    auto inside = [&](long u, long v) { return this->inside(stage, u, v); };
+    // The windows of a foveated cloud's queries spread over much of the image (a few MB of pixels
+    // and points, past the L2 cache), and each candidate is a pixel load, then a point load that
+    // depends on it: the search waited on memory. Four queries ahead, the window's pixel rows are
+    // prefetched; two ahead, the points those rows hold (a row's points are consecutive in the
+    // cloud, around its centre pixel's point).
+    auto prefetch_pixels = [&](std::size_t o) {
+        long u, v;
+        if (o >= open.size() || !pixel_of(queries[open[o]], u, v) || !inside(u, v)) return;
+        for (long y = v - reach; y <= v + reach; ++y) {
+            const std::int32_t* row = pixels_.data() + std::size_t(y) * camera_.width + std::size_t(u);
+            __builtin_prefetch(row - reach);
+            __builtin_prefetch(row + reach);
+        }
+    };
+    auto prefetch_points = [&](std::size_t o) {
+        long u, v;
+        if (o >= open.size() || !pixel_of(queries[open[o]], u, v) || !inside(u, v)) return;
+        for (long y = v - reach; y <= v + reach; ++y) {
+            const std::int32_t i = pixels_[std::size_t(y) * camera_.width + std::size_t(u)];
+            if (i < 0) continue;
+            __builtin_prefetch(points_.data() + std::max<long>(0, i - reach));
+            __builtin_prefetch(points_.data() + std::min<long>(long(points_.size()) - 1, i + reach));
+        }
+    };
 
     tbb::parallel_for(tbb::blocked_range<std::size_t>(0, open.size(), 1024), [&](const auto& range) {
         std::vector<detail::Candidate> best;
         best.reserve(want + 1);
+        std::vector<std::int32_t> window_points(stage.steps.size());
+        std::vector<float> window_distances(stage.steps.size());
         for (std::size_t o = range.begin(); o < range.end(); ++o) {
+            prefetch_pixels(o + 4);
+            prefetch_points(o + 2);
             const std::size_t q = open[o];
             const Point& center = queries[q];
-            if (!(center.z() > 0.0f)) continue;
-            const double a = double(center.x()) / center.z(), b = double(center.y()) / center.z();
-            const long u = std::lround(camera_.fx * a + camera_.cx), v = std::lround(camera_.fy * b + camera_.cy);
-            if (u < 0 || v < 0 || u >= long(camera_.width) || v >= long(camera_.height)) continue;
+            long u, v;
+            if (!pixel_of(center, u, v)) continue;
             best.clear();
             auto consider = [&](std::int32_t i) {
                 if (i < 0) return;
@@ -108,11 +165,22 @@ void OrganizedNeighbors::search_window(const Stage& stage, std::span<const Point
                 const float dx = p.x() - center.x(), dy = p.y() - center.y(), dz = p.z() - center.z();
                 detail::keep_nearest(best, want, {dx * dx + dy * dy + dz * dz, std::uint32_t(i)});
             };
-            if (u >= stage.reach && v >= stage.reach && u + stage.reach < long(camera_.width) &&
-                v + stage.reach < long(camera_.height)) {
+            if (inside(u, v)) {
                 // The whole window lies in the image (most queries): no pixel needs a bounds check.
+                // All the window's distances first, then the selection: with no branch between
+                // them, the window's loads overlap, where keep_nearest's mispredicted compares
+                // issued them one after another.
                 const std::int32_t* centre_pixel = pixels_.data() + std::size_t(v) * camera_.width + std::size_t(u);
-                for (const std::ptrdiff_t step : stage.steps) consider(centre_pixel[step]);
+                for (std::size_t j = 0; j < stage.steps.size(); ++j) {
+                    const std::int32_t i = centre_pixel[stage.steps[j]];
+                    const Point& p = points_[std::size_t(std::max(i, 0))];
+                    const float dx = p.x() - center.x(), dy = p.y() - center.y(), dz = p.z() - center.z();
+                    window_points[j] = i;
+                    window_distances[j] = dx * dx + dy * dy + dz * dz;
+                }
+                for (std::size_t j = 0; j < stage.steps.size(); ++j)
+                    if (window_points[j] >= 0)
+                        detail::keep_nearest(best, want, {window_distances[j], std::uint32_t(window_points[j])});
             } else {
                 for (const auto& [ox, oy] : stage.offsets) {
                     const long x = u + ox, y = v + oy;
@@ -121,16 +189,9 @@ void OrganizedNeighbors::search_window(const Stage& stage, std::span<const Point
                 }
             }
             if (best.size() < want) continue;
-            // Distance from the query to the planes x = (a ± δx) z and y = (b ± δy) z through the
-            // sensor; every point outside the window lies beyond one of them.
-            const double z = center.z();
-            const double bound = std::min({z * delta_x / std::sqrt(1.0 + (a + delta_x) * (a + delta_x)),
-                                           z * delta_x / std::sqrt(1.0 + (a - delta_x) * (a - delta_x)),
-                                           z * delta_y / std::sqrt(1.0 + (b + delta_y) * (b + delta_y)),
-                                           z * delta_y / std::sqrt(1.0 + (b - delta_y) * (b - delta_y))});
-            // Strictly inside, with a relative margin for the float distances: a tie with an
+            // Every point outside the window lies at least outside_bound away: strictly inside, with a relative margin for the float distances: a tie with an
             // unseen point must go on (to a wider window, then the grid, which breaks it by index).
-            if (!(double(best.back().first) < bound * bound * (1.0 - 1e-4))) continue;
+            if (!(double(best.back().first) < outside_bound_squared(stage, center) * (1.0 - 1e-4))) continue;
             for (std::size_t j = 0; j < want; ++j) {
                 indices[q * want + j] = best[j].second;
                 squared_distances[q * want + j] = best[j].first;

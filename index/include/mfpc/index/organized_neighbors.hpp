@@ -38,8 +38,15 @@ private:
         std::vector<std::pair<int, int>> offsets;
         std::vector<std::ptrdiff_t> steps;  // the same offsets in the row-major pixel array
         long reach = 0;                     // the largest offset on either axis: min(window, image extent)
+        double slack = 0.0;  // pixels between the query's projection and any point outside the window
     };
     Stage make_stage(int window) const;
+    // The pixel a query projects to; false when off the image (or behind the sensor, or not finite).
+    bool pixel_of(const Point& center, long& u, long& v) const;
+    // Whether the stage's whole window around pixel (u, v) lies in the image.
+    bool inside(const Stage& stage, long u, long v) const;
+    // A lower bound of the squared distance from the query to any point outside the window.
+    double outside_bound_squared(const Stage& stage, const Point& center) const;
     // Searches the stage's window around each open query; marks those it settles.
     void search_window(const Stage& stage, std::span<const Point> queries, std::span<const std::uint32_t> open,
                        std::size_t want, std::span<std::uint32_t> indices, std::span<float> squared_distances,
