@@ -68,8 +68,9 @@ RecognitionResult recognize(const Model& model, const PointCloud& scene, const R
             scene_grid.emplace(scene.points, normal_grid_cell);
             camera = fit_camera(scene);
         }
-        // A sensor scene's neighbours are found in its depth image (same result, faster).
-        if (full_normals && camera) organized.emplace(scene, *camera);
+        // A sensor scene's neighbours (for normals and verification) are found in its depth image
+        // first (same results, faster).
+        if (camera) organized.emplace(scene, *camera);
         feature_timings.normals_ms = elapsed_ms(t);
     };
     tbb::parallel_invoke(foveate_and_sample, index_scene);
@@ -82,7 +83,8 @@ RecognitionResult recognize(const Model& model, const PointCloud& scene, const R
     if (!full_normals) foveated_grid.emplace(used->points, normal_grid_cell);
     feature_timings.normals_ms += elapsed_ms(t);
     result.scene_features = describe_keypoints(used->points, keypoints, full_normals ? *scene_grid : *foveated_grid,
-                                               params.scene, &feature_timings, organized ? &*organized : nullptr);
+                                               params.scene, &feature_timings,
+                                               full_normals && organized ? &*organized : nullptr);
     result.timings.normals = feature_timings.normals_ms;
     result.timings.lrf = feature_timings.lrf_ms;
     result.timings.descriptors = feature_timings.descriptors_ms;
@@ -105,7 +107,8 @@ RecognitionResult recognize(const Model& model, const PointCloud& scene, const R
         t = Clock::now();
         // Verification looks at the whole scene, whatever foveation kept: it asks whether the
         // sensor saw the model there.
-        const SceneEvidence evidence = make_scene_evidence(scene, *scene_grid, camera);
+        const SceneEvidence evidence =
+            make_scene_evidence(scene, *scene_grid, camera, organized ? &*organized : nullptr);
         result.instances = refine_and_verify(std::move(result.instances), model.points, model.normals, evidence,
                                              params.refine, params.verify);
         result.timings.verify = elapsed_ms(t);

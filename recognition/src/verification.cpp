@@ -88,7 +88,10 @@ void nearest_scene_points(std::span<const std::uint8_t> wanted, const SceneEvide
     tbb::parallel_for(tbb::blocked_range<std::size_t>(0, scratch.placed.size(), 128), [&](const auto& range) {
         for (std::size_t i = range.begin(); i < range.end(); ++i)
             if ((!wanted.empty() && !wanted[i]) ||
-                !scene.grid->nearest(scratch.placed[i], radius, scratch.nearest[i], scratch.squared_distances[i]))
+                !(scene.organized ? scene.organized->nearest(scratch.placed[i], radius, *scene.grid, scratch.nearest[i],
+                                                             scratch.squared_distances[i])
+                                  : scene.grid->nearest(scratch.placed[i], radius, scratch.nearest[i],
+                                                        scratch.squared_distances[i])))
                 scratch.nearest[i] = no_match;
     });
 }
@@ -141,9 +144,11 @@ bool overlaps(std::span<const Point> placed_points, const NeighborGrid& other, c
 
 }  // namespace
 
-SceneEvidence make_scene_evidence(const PointCloud& scene, const NeighborGrid& grid, std::optional<Camera> camera)
+SceneEvidence make_scene_evidence(const PointCloud& scene, const NeighborGrid& grid, std::optional<Camera> camera,
+                                  const OrganizedNeighbors* organized)
 {
     SceneEvidence evidence;
+    evidence.organized = organized;
     evidence.points = scene.points;
     evidence.grid = &grid;
     evidence.camera = camera;

@@ -1,4 +1,5 @@
 #include <cmath>
+#include <limits>
 #include <random>
 #include <vector>
 
@@ -61,6 +62,47 @@ void expect_same_as_grid(const PointCloud& cloud, int k, std::size_t stride, flo
     EXPECT_EQ(da, db);
 }
 
+// Queries about the cloud's points, as ICP and verification ask: on the surface, a little off it
+// (a model point near its scene counterpart), far off it (a miss at every radius), and the
+// queries no window can take.
+void expect_same_nearest_as_grid(const PointCloud& cloud, std::size_t stride, float cell, std::uint32_t seed)
+{
+    const auto camera = fit_camera(cloud);
+    ASSERT_TRUE(camera.has_value());
+    const NeighborGrid grid(cloud.points, cell);
+    const OrganizedNeighbors organized(cloud, *camera);
+    std::mt19937 rng(seed);
+    std::normal_distribution<float> offset(0.0f, 1.0f);
+    std::vector<Point> queries;
+    for (std::size_t i = 0; i < cloud.size(); i += stride)
+        for (float scale : {0.0f, 0.001f, 0.004f, 0.02f})
+            queries.push_back(cloud.points[i] + scale * Point(offset(rng), offset(rng), offset(rng)));
+    const float nan = std::numeric_limits<float>::quiet_NaN(), inf = std::numeric_limits<float>::infinity();
+    for (const Point& odd : {Point(5.0f, 0.0f, 1.0f), Point(0.0f, 0.0f, -1.0f), Point(0.0f, 0.0f, 0.0f),
+                             Point(nan, 0.0f, 1.0f), Point(0.0f, inf, 1.0f), Point(0.0f, 0.0f, inf),
+                             Point(1e30f, 0.0f, 1e-30f), Point(0.01f, 0.02f, 0.95f)})
+        queries.push_back(odd);
+    std::size_t found = 0;
+    auto expect_same = [&](const Point& q, float radius) {
+        std::uint32_t a = 7, b = 7;
+        float da = -1.0f, db = -1.0f;
+        const bool in_grid = grid.nearest(q, radius, a, da);
+        const bool in_image = organized.nearest(q, radius, grid, b, db);
+        ASSERT_EQ(in_grid, in_image) << "radius " << radius << " query " << q.transpose();
+        if (!in_grid) return;
+        ++found;
+        ASSERT_EQ(a, b) << "radius " << radius << " query " << q.transpose();
+        ASSERT_EQ(da, db) << "radius " << radius << " query " << q.transpose();
+    };
+    for (float radius : {0.0f, 0.002f, 0.005f, 0.01f, 0.05f})
+        for (const Point& q : queries) expect_same(q, radius);
+    // Radii no window can settle a miss for, on a few queries: the grid's full scans are slow.
+    for (float radius : {inf, -1.0f, nan})
+        for (std::size_t i = 0; i < queries.size(); i += std::max<std::size_t>(1, queries.size() / 50))
+            expect_same(queries[i], radius);
+    EXPECT_GT(found, 2 * queries.size());  // most queries have a point within the larger radii
+}
+
 TEST(OrganizedNeighbors, SameNeighboursAsTheGridOnASyntheticView)
 {
     const PointCloud cloud = synthetic_view(160, 120, 3);
@@ -79,6 +121,49 @@ TEST(OrganizedNeighbors, SameNeighboursAsTheGridOnTheRealScene)
 {
     MFPC_SHARED_FILE_OR_SKIP(path, "milk_pair.pcd");
     expect_same_as_grid(read_cloud(path), 10, 7, 0.005f);
+}
+
+TEST(OrganizedNeighbors, SameNearestAsTheGrid)
+{
+    expect_same_nearest_as_grid(synthetic_view(160, 120, 3), 3, 0.02f, 1);
+    expect_same_nearest_as_grid(synthetic_view(24, 18, 5), 1, 0.02f, 2);  // windows cut by the image's edges
+}
+
+TEST(OrganizedNeighbors, SameNearestAsTheGridOnTheRealScene)
+{
+    MFPC_SHARED_FILE_OR_SKIP(path, "milk_pair.pcd");
+    expect_same_nearest_as_grid(read_cloud(path), 53, 0.005f, 3);
+}
+
+// Two points at the same distance from the query, either side of it on a wall facing the sensor:
+// the lower index wins, in the image as in the grid.
+TEST(OrganizedNeighbors, NearestBreaksATieByTheLowerIndex)
+{
+    PointCloud wall;
+    wall.width = 41;
+    wall.height = 41;
+    for (std::uint32_t v = 0; v < wall.height; ++v)
+        for (std::uint32_t u = 0; u < wall.width; ++u) {
+            // A hole of 5 x 5 pixels around the centre, but for the pair at u = 18 and 22 of row 20.
+            const bool pair = v == 20 && (u == 18 || u == 22);
+            if (!pair && u >= 18 && u <= 22 && v >= 18 && v <= 22) continue;
+            wall.points.emplace_back((float(u) - 20.0f) / 500.0f, (float(v) - 20.0f) / 500.0f, 1.0f);
+            wall.source_index.push_back(v * wall.width + u);
+        }
+    const auto camera = fit_camera(wall);
+    ASSERT_TRUE(camera.has_value());
+    const NeighborGrid grid(wall.points, 0.005f);
+    const OrganizedNeighbors organized(wall, *camera);
+    // The pair, at x = -0.004 and 0.004, is equally far from (0, 0, z), and nearer than the rest.
+    for (float z : {1.0f, 0.999f, 0.99f}) {
+        std::uint32_t a = 0, b = 0;
+        float da = 0.0f, db = 0.0f;
+        ASSERT_TRUE(grid.nearest(Point(0.0f, 0.0f, z), 0.05f, a, da));
+        ASSERT_TRUE(organized.nearest(Point(0.0f, 0.0f, z), 0.05f, grid, b, db));
+        EXPECT_EQ(wall.points[a], Point(-0.004f, 0.0f, 1.0f));
+        EXPECT_EQ(a, b);
+        EXPECT_EQ(da, db);
+    }
 }
 
 // The fit recovers the synthetic views' pinhole (f = 525, centre in the middle of the image) from

@@ -10,10 +10,12 @@
 #include <gtest/gtest.h>
 #include <tbb/global_control.h>
 
+#include "mfpc/core/camera.hpp"
 #include "mfpc/core/cloud_io.hpp"
 #include "mfpc/core/error.hpp"
 #include "mfpc/core/text_file.hpp"
 #include "mfpc/index/neighbor_grid.hpp"
+#include "mfpc/index/organized_neighbors.hpp"
 #include "mfpc/kernels/shot.hpp"
 #include "mfpc/recognition/evaluation.hpp"
 #include "mfpc/recognition/features.hpp"
@@ -21,6 +23,7 @@
 #include "mfpc/recognition/model.hpp"
 #include "mfpc/recognition/params.hpp"
 #include "mfpc/recognition/recognize.hpp"
+#include "mfpc/recognition/verification.hpp"
 #include "test_support.hpp"
 
 namespace mfpc {
@@ -351,6 +354,41 @@ TEST(Recognize, BitIdenticalAcrossThreadCounts)
         EXPECT_EQ(0, std::memcmp(results[0].instances[i].transform.data(), results[1].instances[i].transform.data(),
                                  16 * sizeof(float)));
         EXPECT_EQ(results[0].instances[i].fitness, results[1].instances[i].fitness);
+    }
+}
+
+// Verification that finds its scene points in the depth image first gives the grid's answers:
+// the same instances, poses and fit statistics, bit for bit, from every hypothesis of the grouping.
+TEST(RefineAndVerify, TheDepthImageChangesNothing)
+{
+    MFPC_SHARED_FILE_OR_SKIP(model_path, "milk.pcd");
+    MFPC_SHARED_FILE_OR_SKIP(scene_path, "milk_pair.pcd");
+    RecognitionParams params;
+    const Model model = prepare_model(read_cloud(model_path), params.model, "milk.pcd");
+    const PointCloud scene = read_cloud(scene_path);
+    params.refine.enabled = false;
+    params.verify.enabled = false;
+    const std::vector<Instance> hypotheses = recognize(model, scene, params).instances;
+    ASSERT_GT(hypotheses.size(), 2u);
+    const NeighborGrid grid(scene.points, normal_grid_cell);
+    const auto camera = fit_camera(scene);
+    ASSERT_TRUE(camera.has_value());
+    const OrganizedNeighbors organized(scene, *camera);
+    const RecognitionParams defaults;
+    const std::vector<Instance> by_grid = refine_and_verify(hypotheses, model.points, model.normals,
+                                                            make_scene_evidence(scene, grid, camera), defaults.refine,
+                                                            defaults.verify);
+    const std::vector<Instance> by_image =
+        refine_and_verify(hypotheses, model.points, model.normals, make_scene_evidence(scene, grid, camera, &organized),
+                          defaults.refine, defaults.verify);
+    ASSERT_EQ(by_grid.size(), 2u);
+    ASSERT_EQ(by_image.size(), by_grid.size());
+    for (std::size_t i = 0; i < by_grid.size(); ++i) {
+        EXPECT_TRUE(by_image[i].transform.matrix() == by_grid[i].transform.matrix()) << i;
+        EXPECT_EQ(by_image[i].fitness, by_grid[i].fitness) << i;
+        EXPECT_EQ(by_image[i].coverage, by_grid[i].coverage) << i;
+        EXPECT_EQ(by_image[i].free_space_violation, by_grid[i].free_space_violation) << i;
+        EXPECT_EQ(by_image[i].rmse, by_grid[i].rmse) << i;
     }
 }
 

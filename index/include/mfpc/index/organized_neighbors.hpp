@@ -12,8 +12,8 @@
 
 namespace mfpc {
 
-// Exact k-nearest search over an organized cloud (a depth image), for normal estimation on sensor
-// clouds. On a Kinect view the distance to the 10th neighbour ranges from 2 mm to over 14 mm (the
+// Exact k-nearest and nearest-within-a-radius search over an organized cloud (a depth image), for
+// normal estimation and ICP on sensor clouds. On a Kinect view the distance to the 10th neighbour ranges from 2 mm to over 14 mm (the
 // oblique floor), so no grid cell suits every query; the image does: the candidates are the points
 // of the (2w+1)^2 pixels around the query's pixel. They are the true k nearest when the k-th lies
 // closer than any point outside the window can: such a point projects w+1 pixels away or more, so
@@ -29,6 +29,12 @@ public:
     // As NeighborGrid::knn_search_batch: min(k, size) entries per query.
     void knn_search_batch(std::span<const Point> queries, int k, const NeighborGrid& grid,
                           std::span<std::uint32_t> indices, std::span<float> squared_distances) const;
+
+    // As NeighborGrid::nearest (the nearest point with squared distance < radius^2, the lower
+    // index on a tie; false when there is none), the same answers: a window of 5 x 5 pixels, then
+    // 9 x 9, then the grid, settling as the k-nearest search does. `grid` as for knn_search_batch.
+    bool nearest(const Point& center, float radius, const NeighborGrid& grid, std::uint32_t& index,
+                 float& squared_distance) const;
 
 private:
     struct Stage {
@@ -56,6 +62,7 @@ private:
     Camera camera_;
     std::vector<std::int32_t> pixels_;  // point index per pixel, -1 where no return
     std::vector<Stage> stages_;         // the window, then a wider one
+    std::vector<Stage> nearest_stages_;  // nearest's windows
 };
 
 }  // namespace mfpc
