@@ -1,45 +1,97 @@
 #include "mfpc/index/organized_neighbors.hpp"
 
 #include <algorithm>
+#include <atomic>
 #include <bit>
 #include <cmath>
 #include <limits>
+#include <mutex>
 #include <string>
 #include <utility>
 
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
+#include <tbb/task_arena.h>
 
 #include "mfpc/core/error.hpp"
 #include "nearest_candidates.hpp"
 
 namespace mfpc {
 
-OrganizedNeighbors::OrganizedNeighbors(const PointCloud& cloud, const Camera& camera, int window)
-    : points_(cloud.points), camera_(camera)
+struct OrganizedNeighbors::Fallback {
+    std::once_flag once;
+    std::unique_ptr<NeighborGrid> grid;
+    std::atomic<bool> built{false};
+};
+
+OrganizedNeighbors::OrganizedNeighbors(const PointCloud& cloud, const Camera& camera, int window, float fallback_cell)
+    : points_(cloud.points), camera_(camera), fallback_cell_(fallback_cell), fallback_(std::make_unique<Fallback>())
 {
     if (!cloud.organized() || cloud.width != camera.width || cloud.height != camera.height)
         throw Error("organized neighbours", "the cloud is not organized on the camera's " +
                                                 std::to_string(camera.width) + " x " + std::to_string(camera.height) +
                                                 " grid");
     if (window < 1) throw Error("organized neighbours", "the window must be at least 1 pixel");
+    if (!(fallback_cell > 0.0f) || !std::isfinite(fallback_cell))
+        throw Error("organized neighbours", "the fallback grid's cell must be a positive number");
     pixels_.assign(cloud.source_size(), -1);
     for (std::size_t i = 0; i < cloud.size(); ++i) pixels_[cloud.source_position(i)] = std::int32_t(i);
-    stages_.push_back(make_stage(window));
-    // A query the window cannot settle (an oblique surface, a depth edge, a far and sparse
-    // background: 8% of a Kinect view) tries a window twice as wide before the grid, which is far
-    // slower there: its cells suit the near, dense surfaces, and sparse points need many shells of
-    // them. Twice settles all but about 1 in 2000 on the shared scenes, and cost less than three
-    // times.
-    if (long(window) < long(std::max(camera.width, camera.height)))
-        stages_.push_back(make_stage(int(std::min<long>(2L * window, std::numeric_limits<int>::max()))));
+    // A k-nearest query the first window cannot settle (an oblique surface, a depth edge, a far
+    // and sparse background: 8% of a Kinect view) tries a window twice as wide, which settles all
+    // but 2% of those, and so on. The grid, the last resort, is far slower for such queries (its
+    // cells suit the near, dense surfaces; sparse points need many shells of them), and building
+    // it costs as much as the whole normal estimation of a foveated scene.
+    stages_ = make_stages(window);
     // A nearest point is sought within a small radius (ICP's, an inlier's) of a point on or near
     // the surface, usually a pixel or two away: 5 x 5 pixels settle 94% of the verification's
-    // queries on the shared scenes, and twice as wide most of the rest (a miss needs the window's
-    // bound to pass the radius).
-    nearest_stages_.push_back(make_stage(2));
-    nearest_stages_.push_back(make_stage(4));
+    // queries on the shared scenes, 9 x 9 most of the rest (a miss needs the window's bound to
+    // pass the radius).
+    nearest_stages_ = make_stages(2);
 }
+
+OrganizedNeighbors::~OrganizedNeighbors() = default;
+OrganizedNeighbors::OrganizedNeighbors(OrganizedNeighbors&&) noexcept = default;
+OrganizedNeighbors& OrganizedNeighbors::operator=(OrganizedNeighbors&&) noexcept = default;
+
+std::vector<OrganizedNeighbors::Stage> OrganizedNeighbors::make_stages(int first) const
+{
+    std::vector<Stage> stages;
+    const long extent = long(std::max(camera_.width, camera_.height));
+    for (long window = first;; window *= 2) {
+        stages.push_back(make_stage(int(std::min<long>(window, std::numeric_limits<int>::max())), stages.size() < 2));
+        if (window >= extent || window >= std::numeric_limits<int>::max() / 2) break;
+    }
+    return stages;
+}
+
+const NeighborGrid& OrganizedNeighbors::fallback() const
+{
+    std::call_once(fallback_->once, [&] {
+        // Isolated: the grid's parallel build must not take up a task of the caller's that needs
+        // the grid too, and would wait on this very call.
+        tbb::this_task_arena::isolate(
+            [&] { fallback_->grid = std::make_unique<NeighborGrid>(points_, fallback_cell_); });
+        fallback_->built = true;
+    });
+    return *fallback_->grid;
+}
+
+bool OrganizedNeighbors::built_fallback() const { return fallback_->built; }
+
+bool OrganizedNeighbors::affordable(const Stage& stage, std::size_t open, std::size_t& budget) const
+{
+    // The listed windows always run; the wider ones while the pixels they read stay within a
+    // budget of a few per cloud point: a window's pixel costs a small fraction of what a point
+    // costs the grid's build, so a search that gives up on the windows has lost a fraction of a
+    // build, and most wide searches (a few hundred queries on a Kinect view) never need one.
+    if (!stage.offsets.empty()) return true;
+    const std::size_t candidates = stage.candidates();
+    if (open > budget / candidates) return false;
+    budget -= open * candidates;
+    return true;
+}
+
+std::size_t OrganizedNeighbors::wide_budget() const { return 4 * std::max<std::size_t>(points_.size(), 1024); }
 
 bool OrganizedNeighbors::pixel_of(const Point& center, long& u, long& v) const
 {
@@ -70,7 +122,7 @@ double OrganizedNeighbors::outside_bound_squared(const Stage& stage, const Point
                             delta_y * delta_y / (1.0 + (b + delta_y) * (b + delta_y)));
 }
 
-OrganizedNeighbors::Stage OrganizedNeighbors::make_stage(int window) const
+OrganizedNeighbors::Stage OrganizedNeighbors::make_stage(int window, bool listed) const
 {
     // Offsets past the image's extent never land on a pixel: a window wider than the image visits
     // the whole image, and needs no more offsets (nor a product that overflows).
@@ -78,6 +130,8 @@ OrganizedNeighbors::Stage OrganizedNeighbors::make_stage(int window) const
     // query at most half a pixel from it, the point at most max_residual from its own.
     Stage stage{window, {}, {}, std::min<long>(window, long(std::max(camera_.width, camera_.height))),
                 double(window) + 0.5 - double(camera_.max_residual)};
+    stage.whole = stage.reach + 1 >= long(std::max(camera_.width, camera_.height));
+    if (!listed) return stage;
     for (long dy = -stage.reach; dy <= stage.reach; ++dy)
         for (long dx = -stage.reach; dx <= stage.reach; ++dx) stage.offsets.emplace_back(int(dx), int(dy));
     std::stable_sort(stage.offsets.begin(), stage.offsets.end(), [](const auto& a, const auto& b) {
@@ -87,11 +141,34 @@ OrganizedNeighbors::Stage OrganizedNeighbors::make_stage(int window) const
     return stage;
 }
 
-void OrganizedNeighbors::knn_search_batch(std::span<const Point> queries, int k, const NeighborGrid& grid,
-                                          std::span<std::uint32_t> indices, std::span<float> squared_distances) const
+template <class Visit>
+void OrganizedNeighbors::visit_window(const Stage& stage, long u, long v, Visit&& visit) const
 {
-    if (grid.points().data() != points_.data() || grid.size() != points_.size())
-        throw Error("organized neighbours", "the grid is not over the organized cloud's points");
+    if (stage.offsets.empty()) {  // a wide window: row by row, clipped to the image
+        const long x0 = std::max(0L, u - stage.reach), x1 = std::min(long(camera_.width) - 1, u + stage.reach);
+        const long y0 = std::max(0L, v - stage.reach), y1 = std::min(long(camera_.height) - 1, v + stage.reach);
+        for (long y = y0; y <= y1; ++y) {
+            const std::int32_t* row = pixels_.data() + std::size_t(y) * camera_.width;
+            for (long x = x0; x <= x1; ++x)
+                if (row[x] >= 0) visit(row[x]);
+        }
+    } else if (inside(stage, u, v)) {  // no pixel needs a bounds check
+        const std::int32_t* centre_pixel = pixels_.data() + std::size_t(v) * camera_.width + std::size_t(u);
+        for (const std::ptrdiff_t step : stage.steps)
+            if (centre_pixel[step] >= 0) visit(centre_pixel[step]);
+    } else {
+        for (const auto& [ox, oy] : stage.offsets) {
+            const long x = u + ox, y = v + oy;
+            if (x < 0 || y < 0 || x >= long(camera_.width) || y >= long(camera_.height)) continue;
+            const std::int32_t i = pixels_[std::size_t(y) * camera_.width + std::size_t(x)];
+            if (i >= 0) visit(i);
+        }
+    }
+}
+
+void OrganizedNeighbors::knn_search_batch(std::span<const Point> queries, int k, std::span<std::uint32_t> indices,
+                                          std::span<float> squared_distances) const
+{
     const std::size_t want = k <= 0 ? 0 : std::min<std::size_t>(std::size_t(k), points_.size());
     if (indices.size() != queries.size() * want || squared_distances.size() != queries.size() * want)
         throw Error("organized neighbours", "knn_search_batch needs min(k, size) outputs per query");
@@ -101,7 +178,9 @@ void OrganizedNeighbors::knn_search_batch(std::span<const Point> queries, int k,
     std::vector<std::uint32_t> open(queries.size());
     for (std::size_t q = 0; q < queries.size(); ++q) open[q] = std::uint32_t(q);
     std::vector<std::uint8_t> settled(queries.size(), 0);
+    std::size_t budget = wide_budget();
     for (const Stage& stage : stages_) {
+        if (!affordable(stage, open.size(), budget)) break;
         search_window(stage, queries, open, want, indices, squared_distances, settled);
         std::erase_if(open, [&](std::uint32_t q) { return settled[q] != 0; });
         if (open.empty()) return;
@@ -110,7 +189,7 @@ void OrganizedNeighbors::knn_search_batch(std::span<const Point> queries, int k,
     for (std::size_t r = 0; r < open.size(); ++r) rest[r] = queries[open[r]];
     std::vector<std::uint32_t> rest_indices(rest.size() * want);
     std::vector<float> rest_distances(rest.size() * want);
-    grid.knn_search_batch(rest, int(want), rest_indices, rest_distances);
+    fallback().knn_search_batch(rest, int(want), rest_indices, rest_distances);
     for (std::size_t r = 0; r < rest.size(); ++r) {
         std::copy_n(rest_indices.begin() + std::ptrdiff_t(r * want), want, indices.begin() + std::ptrdiff_t(open[r] * want));
         std::copy_n(rest_distances.begin() + std::ptrdiff_t(r * want), want,
@@ -123,7 +202,7 @@ void OrganizedNeighbors::search_window(const Stage& stage, std::span<const Point
                                        std::span<std::uint32_t> indices, std::span<float> squared_distances,
                                        std::span<std::uint8_t> settled) const
 {
-    if (stage.slack <= 0.0) return;
+    if (stage.slack <= 0.0 && !stage.whole) return;
 
     const long reach = stage.reach;
     auto inside = [&](long u, long v) { return this->inside(stage, u, v); };
@@ -158,21 +237,16 @@ void OrganizedNeighbors::search_window(const Stage& stage, std::span<const Point
         std::vector<std::int32_t> window_points(stage.steps.size());
         std::vector<float> window_distances(stage.steps.size());
         for (std::size_t o = range.begin(); o < range.end(); ++o) {
-            prefetch_pixels(o + 4);
-            prefetch_points(o + 2);
+            if (!stage.offsets.empty()) {
+                prefetch_pixels(o + 4);
+                prefetch_points(o + 2);
+            }
             const std::size_t q = open[o];
             const Point& center = queries[q];
             long u, v;
             if (!pixel_of(center, u, v)) continue;
             best.clear();
-            auto consider = [&](std::int32_t i) {
-                if (i < 0) return;
-                const Point& p = points_[std::size_t(i)];
-                // NeighborGrid's arithmetic, so the distances are its distances.
-                const float dx = p.x() - center.x(), dy = p.y() - center.y(), dz = p.z() - center.z();
-                detail::keep_nearest(best, want, {dx * dx + dy * dy + dz * dz, std::uint32_t(i)});
-            };
-            if (inside(u, v)) {
+            if (!stage.offsets.empty() && inside(u, v)) {
                 // The whole window lies in the image (most queries): no pixel needs a bounds check.
                 // All the window's distances first, then the selection: with no branch between
                 // them, the window's loads overlap, where keep_nearest's mispredicted compares
@@ -189,16 +263,21 @@ void OrganizedNeighbors::search_window(const Stage& stage, std::span<const Point
                     if (window_points[j] >= 0)
                         detail::keep_nearest(best, want, {window_distances[j], std::uint32_t(window_points[j])});
             } else {
-                for (const auto& [ox, oy] : stage.offsets) {
-                    const long x = u + ox, y = v + oy;
-                    if (x < 0 || y < 0 || x >= long(camera_.width) || y >= long(camera_.height)) continue;
-                    consider(pixels_[std::size_t(y) * camera_.width + std::size_t(x)]);
-                }
+                visit_window(stage, u, v, [&](std::int32_t i) {
+                    const Point& p = points_[std::size_t(i)];
+                    // NeighborGrid's arithmetic, so the distances are its distances.
+                    const float dx = p.x() - center.x(), dy = p.y() - center.y(), dz = p.z() - center.z();
+                    detail::keep_nearest(best, want, {dx * dx + dy * dy + dz * dz, std::uint32_t(i)});
+                });
             }
             if (best.size() < want) continue;
-            // Every point outside the window lies at least outside_bound away: strictly inside, with a relative margin for the float distances: a tie with an
-            // unseen point must go on (to a wider window, then the grid, which breaks it by index).
-            if (!(double(best.back().first) < outside_bound_squared(stage, center) * (1.0 - 1e-4))) continue;
+            // Every point outside the window lies at least outside_bound away: strictly inside, with
+            // a relative margin for the float distances: a tie with an unseen point must go on (to a
+            // wider window, then the grid, which breaks it by index). A window over the whole image
+            // has seen every point.
+            if (!stage.whole &&
+                !(double(best.back().first) < outside_bound_squared(stage, center) * (1.0 - 1e-4)))
+                continue;
             for (std::size_t j = 0; j < want; ++j) {
                 indices[q * want + j] = best[j].second;
                 squared_distances[q * want + j] = best[j].first;
@@ -208,52 +287,63 @@ void OrganizedNeighbors::search_window(const Stage& stage, std::span<const Point
     });
 }
 
-bool OrganizedNeighbors::nearest(const Point& center, float radius, const NeighborGrid& grid, std::uint32_t& index,
-                                 float& squared_distance) const
+void OrganizedNeighbors::nearest_batch(std::span<const Point> queries, float radius, std::span<std::uint32_t> indices,
+                                       std::span<float> squared_distances) const
 {
-    if (grid.points().data() != points_.data() || grid.size() != points_.size())
-        throw Error("organized neighbours", "the grid is not over the organized cloud's points");
-    long u, v;
-    if (radius >= 0.0f && pixel_of(center, u, v)) {
-        const float radius2 = radius * radius;
-        for (const Stage& stage : nearest_stages_) {
-            if (stage.slack <= 0.0) continue;
-            // The least (squared distance, index), as one integer: squared distances are >= +0,
-            // where the order of floats is that of their bits. No branch to mispredict.
-            std::uint64_t least = std::numeric_limits<std::uint64_t>::max();
-            auto consider = [&](std::int32_t i) {
-                const Point& p = points_[std::size_t(std::max(i, 0))];
-                const float dx = p.x() - center.x(), dy = p.y() - center.y(), dz = p.z() - center.z();
-                const std::uint64_t key =
-                    (std::uint64_t(std::bit_cast<std::uint32_t>(dx * dx + dy * dy + dz * dz)) << 32) | std::uint32_t(i);
-                least = std::min(least, i < 0 ? std::numeric_limits<std::uint64_t>::max() : key);
-            };
-            if (inside(stage, u, v)) {  // no pixel needs a bounds check
-                const std::int32_t* centre_pixel = pixels_.data() + std::size_t(v) * camera_.width + std::size_t(u);
-                for (const std::ptrdiff_t step : stage.steps) consider(centre_pixel[step]);
-            } else {
-                for (const auto& [ox, oy] : stage.offsets) {
-                    const long x = u + ox, y = v + oy;
-                    if (x < 0 || y < 0 || x >= long(camera_.width) || y >= long(camera_.height)) continue;
-                    consider(pixels_[std::size_t(y) * camera_.width + std::size_t(x)]);
+    if (indices.size() != queries.size() || squared_distances.size() != queries.size())
+        throw Error("organized neighbours", "nearest_batch needs one output per query");
+    std::fill(indices.begin(), indices.end(), no_point);
+    if (!(radius >= 0.0f) || points_.empty() || queries.empty()) return;  // NeighborGrid::nearest finds nothing
+    const float radius2 = radius * radius;
+
+    std::vector<std::uint32_t> open(queries.size());
+    for (std::size_t q = 0; q < queries.size(); ++q) open[q] = std::uint32_t(q);
+    std::vector<std::uint8_t> settled(queries.size(), 0);
+    std::size_t budget = wide_budget();
+    for (const Stage& stage : nearest_stages_) {
+        if (stage.slack <= 0.0 && !stage.whole) continue;
+        if (!affordable(stage, open.size(), budget)) break;
+        tbb::parallel_for(tbb::blocked_range<std::size_t>(0, open.size(), 128), [&](const auto& range) {
+            for (std::size_t o = range.begin(); o < range.end(); ++o) {
+                const std::size_t q = open[o];
+                const Point& center = queries[q];
+                long u, v;
+                if (!pixel_of(center, u, v)) continue;
+                // The least (squared distance, index), as one integer: squared distances are >= +0,
+                // where the order of floats is that of their bits.
+                std::uint64_t least = std::numeric_limits<std::uint64_t>::max();
+                visit_window(stage, u, v, [&](std::int32_t i) {
+                    const Point& p = points_[std::size_t(i)];
+                    const float dx = p.x() - center.x(), dy = p.y() - center.y(), dz = p.z() - center.z();
+                    least = std::min(least, (std::uint64_t(std::bit_cast<std::uint32_t>(dx * dx + dy * dy + dz * dz))
+                                             << 32) | std::uint32_t(i));
+                });
+                const float best = std::bit_cast<float>(std::uint32_t(least >> 32));
+                const bool found = least != std::numeric_limits<std::uint64_t>::max() && best < radius2;
+                // Settled when every point outside the window is farther than the window's nearest
+                // (strictly: a tie goes to the lower index, which may lie outside), or, for a miss,
+                // at least the radius away; with the k-nearest search's margin.
+                if (!stage.whole) {
+                    const double limit = outside_bound_squared(stage, center) * (1.0 - 1e-4);
+                    if (!(found ? double(best) < limit : double(radius2) <= limit)) continue;
                 }
-            }
-            const float best = std::bit_cast<float>(std::uint32_t(least >> 32));
-            const bool found = least != std::numeric_limits<std::uint64_t>::max() && best < radius2;
-            // Settled when every point outside the window is farther than the window's nearest
-            // (strictly: a tie goes to the lower index, which may lie outside), or, for a miss,
-            // at least the radius away; with knn's margin for the float distances.
-            const double limit = outside_bound_squared(stage, center) * (1.0 - 1e-4);
-            if (found ? double(best) < limit : double(radius2) <= limit) {
                 if (found) {
-                    index = std::uint32_t(least);
-                    squared_distance = best;
+                    indices[q] = std::uint32_t(least);
+                    squared_distances[q] = best;
                 }
-                return found;
+                settled[q] = 1;
             }
-        }
+        });
+        std::erase_if(open, [&](std::uint32_t q) { return settled[q] != 0; });
+        if (open.empty()) return;
     }
-    return grid.nearest(center, radius, index, squared_distance);
+    const NeighborGrid& grid = fallback();
+    tbb::parallel_for(tbb::blocked_range<std::size_t>(0, open.size(), 128), [&](const auto& range) {
+        for (std::size_t o = range.begin(); o < range.end(); ++o) {
+            const std::size_t q = open[o];
+            if (!grid.nearest(queries[q], radius, indices[q], squared_distances[q])) indices[q] = no_point;
+        }
+    });
 }
 
 }  // namespace mfpc

@@ -14,8 +14,13 @@
 
 namespace mfpc {
 
-void estimate_normals(std::span<const Point> queries, const NeighborGrid& surface, const NormalParams& params,
-                      std::span<Point> normals, const OrganizedNeighbors* organized)
+namespace {
+
+// The normals of `queries` from their k nearest among `surface` points, which `find` searches:
+// find(queries, k, indices, squared distances) as NeighborGrid::knn_search_batch.
+template <class Find>
+void normals_from(std::span<const Point> queries, std::span<const Point> surface, const NormalParams& params,
+                  std::span<Point> normals, Find&& find)
 {
     if (normals.size() != queries.size())
         throw Error("estimate_normals", "normals has " + std::to_string(normals.size()) + " entries for " +
@@ -23,7 +28,6 @@ void estimate_normals(std::span<const Point> queries, const NeighborGrid& surfac
     if (params.k < 3) throw Error("estimate_normals", "k must be at least 3, got " + std::to_string(params.k));
     if (!params.viewpoint.allFinite()) throw Error("estimate_normals", "the viewpoint is not finite");
 
-    const auto surface_points = surface.points();
     const Point undefined = Point::Constant(std::numeric_limits<float>::quiet_NaN());
     const std::size_t k = std::min<std::size_t>(std::size_t(params.k), surface.size());
     if (k < 3) {
@@ -37,23 +41,19 @@ void estimate_normals(std::span<const Point> queries, const NeighborGrid& surfac
     std::vector<float> squared_distances(neighbours.size());
     for (std::size_t offset = 0; offset < queries.size(); offset += batch) {
         const std::size_t count = std::min(batch, queries.size() - offset);
-        const auto batch_indices = std::span<std::uint32_t>(neighbours).first(count * k);
-        const auto batch_distances = std::span<float>(squared_distances).first(count * k);
-        if (organized != nullptr)
-            organized->knn_search_batch(queries.subspan(offset, count), int(k), surface, batch_indices, batch_distances);
-        else
-            surface.knn_search_batch(queries.subspan(offset, count), int(k), batch_indices, batch_distances);
+        find(queries.subspan(offset, count), int(k), std::span<std::uint32_t>(neighbours).first(count * k),
+             std::span<float>(squared_distances).first(count * k));
         tbb::parallel_for(tbb::blocked_range<std::size_t>(0, count, 1024), [&](const auto& range) {
             for (std::size_t i = range.begin(); i < range.end(); ++i) {
                 const std::uint32_t* own = neighbours.data() + i * k;
                 // Double precision and a two-pass covariance: PCL's single-pass float covariance
                 // loses digits far from the origin; ours is the value PCL approximates.
                 Eigen::Vector3d mean = Eigen::Vector3d::Zero();
-                for (std::size_t j = 0; j < k; ++j) mean += surface_points[own[j]].cast<double>();
+                for (std::size_t j = 0; j < k; ++j) mean += surface[own[j]].cast<double>();
                 mean /= double(k);
                 Eigen::Matrix3d covariance = Eigen::Matrix3d::Zero();
                 for (std::size_t j = 0; j < k; ++j) {
-                    const Eigen::Vector3d d = surface_points[own[j]].cast<double>() - mean;
+                    const Eigen::Vector3d d = surface[own[j]].cast<double>() - mean;
                     covariance.noalias() += d * d.transpose();
                 }
                 covariance /= double(k);
@@ -74,6 +74,24 @@ void estimate_normals(std::span<const Point> queries, const NeighborGrid& surfac
             }
         });
     }
+}
+
+}  // namespace
+
+void estimate_normals(std::span<const Point> queries, const NeighborGrid& surface, const NormalParams& params,
+                      std::span<Point> normals)
+{
+    normals_from(queries, surface.points(), params, normals, [&](auto... arguments) {
+        surface.knn_search_batch(arguments...);
+    });
+}
+
+void estimate_normals(std::span<const Point> queries, const OrganizedNeighbors& surface, const NormalParams& params,
+                      std::span<Point> normals)
+{
+    normals_from(queries, surface.points(), params, normals, [&](auto... arguments) {
+        surface.knn_search_batch(arguments...);
+    });
 }
 
 void orient_normals(std::span<Point> normals, std::span<const Point> reference)

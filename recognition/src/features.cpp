@@ -26,9 +26,13 @@ std::span<const float> Features::descriptor(std::size_t i) const
     return std::span<const float>(descriptors).subspan(i * shot_size, shot_size);
 }
 
-Features describe_keypoints(std::span<const Point> surface, std::span<const std::uint32_t> keypoints,
-                            const NeighborGrid& normal_source, const FeatureParams& params, FeatureTimings* timings,
-                            const OrganizedNeighbors* organized, std::span<const Point> orientation)
+namespace {
+
+// describe_keypoints with the normals' neighbour search left to `estimate(points, normals)`.
+template <class Estimate>
+Features describe(std::span<const Point> surface, std::span<const std::uint32_t> keypoints,
+                  const FeatureParams& params, FeatureTimings* timings, std::span<const Point> orientation,
+                  Estimate&& estimate)
 {
     if (!orientation.empty() && orientation.size() != surface.size())
         throw Error("describe_keypoints", "the orientation normals must be one per surface point");
@@ -60,8 +64,7 @@ Features describe_keypoints(std::span<const Point> surface, std::span<const std:
     std::vector<Point> query_points(queries.size());
     for (std::size_t i = 0; i < queries.size(); ++i) query_points[i] = surface[queries[i]];
     std::vector<Point> query_normals(queries.size());
-    estimate_normals(query_points, normal_source, NormalParams{params.normal_k, Point::Zero()}, query_normals,
-                     organized);
+    estimate(query_points, query_normals);
     if (!orientation.empty()) {
         std::vector<Point> reference(queries.size());
         for (std::size_t i = 0; i < queries.size(); ++i) reference[i] = orientation[queries[i]];
@@ -113,6 +116,28 @@ Features describe_keypoints(std::span<const Point> surface, std::span<const std:
     features.frames = std::move(board);
     features.descriptors = std::move(descriptors);
     return features;
+}
+
+}  // namespace
+
+Features describe_keypoints(std::span<const Point> surface, std::span<const std::uint32_t> keypoints,
+                            const NeighborGrid& normal_source, const FeatureParams& params, FeatureTimings* timings,
+                            std::span<const Point> orientation)
+{
+    return describe(surface, keypoints, params, timings, orientation,
+                    [&](std::span<const Point> points, std::span<Point> normals) {
+                        estimate_normals(points, normal_source, NormalParams{params.normal_k, Point::Zero()}, normals);
+                    });
+}
+
+Features describe_keypoints(std::span<const Point> surface, std::span<const std::uint32_t> keypoints,
+                            const OrganizedNeighbors& normal_source, const FeatureParams& params,
+                            FeatureTimings* timings, std::span<const Point> orientation)
+{
+    return describe(surface, keypoints, params, timings, orientation,
+                    [&](std::span<const Point> points, std::span<Point> normals) {
+                        estimate_normals(points, normal_source, NormalParams{params.normal_k, Point::Zero()}, normals);
+                    });
 }
 
 }  // namespace mfpc

@@ -117,7 +117,7 @@ Model prepare_model(const PointCloud& cloud, const FeatureParams& params, const 
                                                                    : std::span<const Point>();
     if (!orientation.empty()) orient_normals(model.normals, orientation);
     const auto keypoints = uniform_sampling(model.points, params.keypoint_radius);
-    model.features = describe_keypoints(model.points, keypoints, grid, params, timings, nullptr, orientation);
+    model.features = describe_keypoints(model.points, keypoints, grid, params, timings, orientation);
     if (model.features.size() < 3)
         throw Error(source, "the model has " + std::to_string(model.features.size()) +
                                 " usable keypoints (fewer than 3): is it too small for keypoint_radius " +

@@ -39,15 +39,15 @@ RecognitionResult recognize(const Model& model, const PointCloud& scene, const R
     const bool foveating = foveation.config != nullptr && foveation.mode != FoveationMode::none;
     const PointCloud* used = foveating ? &foveated.cloud : &scene;
     std::vector<std::uint32_t> keypoints;
-    // One grid and one camera over the whole scene serve the normals (when taken from the full
-    // scene) and verification.
     FeatureTimings feature_timings;
     const bool full_normals = params.normals_from == NormalsFrom::full || !foveating;
     const bool verify = params.refine.enabled || params.verify.enabled;
-    std::optional<NeighborGrid> scene_grid;
-    std::optional<Camera> camera;
+    // One neighbour index over the whole scene serves the normals (when taken from the full scene)
+    // and verification: a sensor scene's depth image (the grid's answers, faster; it builds a grid
+    // itself only for the few queries the image cannot settle), else a grid.
     std::optional<OrganizedNeighbors> organized;
-    // Foveation and keypoints on one side, the whole scene's grid and camera on the other: they
+    std::optional<NeighborGrid> scene_grid;
+    // Foveation and keypoints on one side, the whole scene's index and camera on the other: they
     // share nothing, and each scales poorly on its own (the camera fit is serial), so with more
     // than one thread they run side by side. Each stage's time is its own, so foveate and normals
     // may add up to more than the total.
@@ -65,12 +65,11 @@ RecognitionResult recognize(const Model& model, const PointCloud& scene, const R
     auto index_scene = [&] {
         const auto t = Clock::now();
         if (full_normals || verify) {
-            scene_grid.emplace(scene.points, normal_grid_cell);
-            camera = fit_camera(scene);
+            if (const std::optional<Camera> camera = fit_camera(scene))
+                organized.emplace(scene, *camera, 3, normal_grid_cell);
+            else
+                scene_grid.emplace(scene.points, normal_grid_cell);
         }
-        // A sensor scene's neighbours (for normals and verification) are found in its depth image
-        // first (same results, faster).
-        if (camera) organized.emplace(scene, *camera);
         feature_timings.normals_ms = elapsed_ms(t);
     };
     tbb::parallel_invoke(foveate_and_sample, index_scene);
@@ -82,9 +81,10 @@ RecognitionResult recognize(const Model& model, const PointCloud& scene, const R
     std::optional<NeighborGrid> foveated_grid;
     if (!full_normals) foveated_grid.emplace(used->points, normal_grid_cell);
     feature_timings.normals_ms += elapsed_ms(t);
-    result.scene_features = describe_keypoints(used->points, keypoints, full_normals ? *scene_grid : *foveated_grid,
-                                               params.scene, &feature_timings,
-                                               full_normals && organized ? &*organized : nullptr);
+    result.scene_features =
+        !full_normals ? describe_keypoints(used->points, keypoints, *foveated_grid, params.scene, &feature_timings)
+        : organized   ? describe_keypoints(used->points, keypoints, *organized, params.scene, &feature_timings)
+                      : describe_keypoints(used->points, keypoints, *scene_grid, params.scene, &feature_timings);
     result.timings.normals = feature_timings.normals_ms;
     result.timings.lrf = feature_timings.lrf_ms;
     result.timings.descriptors = feature_timings.descriptors_ms;
@@ -108,7 +108,7 @@ RecognitionResult recognize(const Model& model, const PointCloud& scene, const R
         // Verification looks at the whole scene, whatever foveation kept: it asks whether the
         // sensor saw the model there.
         const SceneEvidence evidence =
-            make_scene_evidence(scene, *scene_grid, camera, organized ? &*organized : nullptr);
+            organized ? make_scene_evidence(scene, *organized) : make_scene_evidence(scene, *scene_grid, std::nullopt);
         result.instances = refine_and_verify(std::move(result.instances), model.points, model.normals, evidence,
                                              params.refine, params.verify);
         result.timings.verify = elapsed_ms(t);

@@ -85,13 +85,29 @@ constexpr std::uint32_t no_match = std::numeric_limits<std::uint32_t>::max();
 void nearest_scene_points(std::span<const std::uint8_t> wanted, const SceneEvidence& scene, float radius,
                           Scratch& scratch)
 {
+    if (scene.organized) {
+        std::vector<Point> queries;
+        std::vector<std::uint32_t> asked;
+        for (std::size_t i = 0; i < scratch.placed.size(); ++i)
+            if (wanted.empty() || wanted[i]) {
+                queries.push_back(scratch.placed[i]);
+                asked.push_back(std::uint32_t(i));
+            }
+        std::vector<std::uint32_t> found(queries.size());
+        std::vector<float> squared(queries.size());
+        scene.organized->nearest_batch(queries, radius, found, squared);
+        std::fill(scratch.nearest.begin(), scratch.nearest.end(), no_match);
+        for (std::size_t q = 0; q < asked.size(); ++q)
+            if (found[q] != OrganizedNeighbors::no_point) {
+                scratch.nearest[asked[q]] = found[q];
+                scratch.squared_distances[asked[q]] = squared[q];
+            }
+        return;
+    }
     tbb::parallel_for(tbb::blocked_range<std::size_t>(0, scratch.placed.size(), 128), [&](const auto& range) {
         for (std::size_t i = range.begin(); i < range.end(); ++i)
             if ((!wanted.empty() && !wanted[i]) ||
-                !(scene.organized ? scene.organized->nearest(scratch.placed[i], radius, *scene.grid, scratch.nearest[i],
-                                                             scratch.squared_distances[i])
-                                  : scene.grid->nearest(scratch.placed[i], radius, scratch.nearest[i],
-                                                        scratch.squared_distances[i])))
+                !scene.grid->nearest(scratch.placed[i], radius, scratch.nearest[i], scratch.squared_distances[i]))
                 scratch.nearest[i] = no_match;
     });
 }
@@ -142,20 +158,35 @@ bool overlaps(std::span<const Point> placed_points, const NeighborGrid& other, c
     return float(close) >= verify.merge_overlap * float(placed_points.size());
 }
 
+// Each pixel's observed depth, NaN where the sensor had no return.
+std::vector<float> depth_image(const PointCloud& scene)
+{
+    std::vector<float> depth(scene.source_size(), std::numeric_limits<float>::quiet_NaN());
+    for (std::size_t i = 0; i < scene.size(); ++i) depth[scene.source_position(i)] = scene.points[i].z();
+    return depth;
+}
+
 }  // namespace
 
-SceneEvidence make_scene_evidence(const PointCloud& scene, const NeighborGrid& grid, std::optional<Camera> camera,
-                                  const OrganizedNeighbors* organized)
+SceneEvidence make_scene_evidence(const PointCloud& scene, const NeighborGrid& grid, std::optional<Camera> camera)
 {
     SceneEvidence evidence;
-    evidence.organized = organized;
     evidence.points = scene.points;
     evidence.grid = &grid;
     evidence.camera = camera;
-    if (evidence.camera) {
-        evidence.depth.assign(scene.source_size(), std::numeric_limits<float>::quiet_NaN());
-        for (std::size_t i = 0; i < scene.size(); ++i) evidence.depth[scene.source_position(i)] = scene.points[i].z();
-    }
+    if (evidence.camera) evidence.depth = depth_image(scene);
+    return evidence;
+}
+
+SceneEvidence make_scene_evidence(const PointCloud& scene, const OrganizedNeighbors& organized)
+{
+    if (organized.points().data() != scene.points.data() || organized.size() != scene.size())
+        throw Error("make_scene_evidence", "the organized index is not over this scene");
+    SceneEvidence evidence;
+    evidence.points = scene.points;
+    evidence.organized = &organized;
+    evidence.camera = organized.camera();
+    evidence.depth = depth_image(scene);
     return evidence;
 }
 
@@ -167,7 +198,7 @@ std::vector<Instance> refine_and_verify(std::vector<Instance> instances, std::sp
     if (model_normals.size() != model_points.size())
         throw Error("refine_and_verify", "the model has " + std::to_string(model_normals.size()) + " normals for " +
                                              std::to_string(model_points.size()) + " points");
-    if (scene.grid == nullptr) throw Error("refine_and_verify", "no scene grid");
+    if (scene.grid == nullptr && scene.organized == nullptr) throw Error("refine_and_verify", "no scene index");
 
     // Thin the model once: ICP and the fit statistics need its shape, not every point.
     std::vector<std::uint32_t> kept;

@@ -47,7 +47,7 @@ void expect_same_as_grid(const PointCloud& cloud, int k, std::size_t stride, flo
     const auto camera = fit_camera(cloud);
     ASSERT_TRUE(camera.has_value());
     const NeighborGrid grid(cloud.points, cell);
-    const OrganizedNeighbors organized(cloud, *camera, window);
+    const OrganizedNeighbors organized(cloud, *camera, window, cell);
     std::vector<Point> queries;
     for (std::size_t i = 0; i < cloud.size(); i += stride) queries.push_back(cloud.points[i]);
     queries.push_back(Point(0.01f, 0.02f, 0.95f));  // off the cloud, inside the image
@@ -57,7 +57,7 @@ void expect_same_as_grid(const PointCloud& cloud, int k, std::size_t stride, flo
     std::vector<std::uint32_t> a(queries.size() * want), b(queries.size() * want);
     std::vector<float> da(a.size()), db(b.size());
     grid.knn_search_batch(queries, k, a, da);
-    organized.knn_search_batch(queries, k, grid, b, db);
+    organized.knn_search_batch(queries, k, b, db);
     EXPECT_EQ(a, b);
     EXPECT_EQ(da, db);
 }
@@ -70,7 +70,7 @@ void expect_same_nearest_as_grid(const PointCloud& cloud, std::size_t stride, fl
     const auto camera = fit_camera(cloud);
     ASSERT_TRUE(camera.has_value());
     const NeighborGrid grid(cloud.points, cell);
-    const OrganizedNeighbors organized(cloud, *camera);
+    const OrganizedNeighbors organized(cloud, *camera, 3, cell);
     std::mt19937 rng(seed);
     std::normal_distribution<float> offset(0.0f, 1.0f);
     std::vector<Point> queries;
@@ -83,23 +83,29 @@ void expect_same_nearest_as_grid(const PointCloud& cloud, std::size_t stride, fl
                              Point(1e30f, 0.0f, 1e-30f), Point(0.01f, 0.02f, 0.95f)})
         queries.push_back(odd);
     std::size_t found = 0;
-    auto expect_same = [&](const Point& q, float radius) {
-        std::uint32_t a = 7, b = 7;
-        float da = -1.0f, db = -1.0f;
-        const bool in_grid = grid.nearest(q, radius, a, da);
-        const bool in_image = organized.nearest(q, radius, grid, b, db);
-        ASSERT_EQ(in_grid, in_image) << "radius " << radius << " query " << q.transpose();
-        if (!in_grid) return;
-        ++found;
-        ASSERT_EQ(a, b) << "radius " << radius << " query " << q.transpose();
-        ASSERT_EQ(da, db) << "radius " << radius << " query " << q.transpose();
+    auto expect_same = [&](std::span<const Point> asked, float radius) {
+        std::vector<std::uint32_t> in_image(asked.size());
+        std::vector<float> image_distances(asked.size(), -1.0f);
+        organized.nearest_batch(asked, radius, in_image, image_distances);
+        for (std::size_t q = 0; q < asked.size(); ++q) {
+            std::uint32_t index = 7;
+            float distance = -1.0f;
+            const bool in_grid = grid.nearest(asked[q], radius, index, distance);
+            ASSERT_EQ(in_grid, in_image[q] != OrganizedNeighbors::no_point)
+                << "radius " << radius << " query " << asked[q].transpose();
+            if (!in_grid) continue;
+            ++found;
+            ASSERT_EQ(index, in_image[q]) << "radius " << radius << " query " << asked[q].transpose();
+            ASSERT_EQ(distance, image_distances[q]) << "radius " << radius << " query " << asked[q].transpose();
+        }
     };
-    for (float radius : {0.0f, 0.002f, 0.005f, 0.01f, 0.05f})
-        for (const Point& q : queries) expect_same(q, radius);
+    for (float radius : {0.0f, 0.002f, 0.005f, 0.01f, 0.05f}) expect_same(queries, radius);
     // Radii no window can settle a miss for, on a few queries: the grid's full scans are slow.
-    for (float radius : {inf, -1.0f, nan})
-        for (std::size_t i = 0; i < queries.size(); i += std::max<std::size_t>(1, queries.size() / 50))
-            expect_same(queries[i], radius);
+    std::vector<Point> few;
+    for (std::size_t i = 0; i < queries.size(); i += std::max<std::size_t>(1, queries.size() / 50))
+        few.push_back(queries[i]);
+    few.insert(few.end(), queries.end() - 8, queries.end());
+    for (float radius : {inf, -1.0f, nan}) expect_same(few, radius);
     EXPECT_GT(found, 2 * queries.size());  // most queries have a point within the larger radii
 }
 
@@ -155,37 +161,49 @@ TEST(OrganizedNeighbors, NearestBreaksATieByTheLowerIndex)
     const NeighborGrid grid(wall.points, 0.005f);
     const OrganizedNeighbors organized(wall, *camera);
     // The pair, at x = -0.004 and 0.004, is equally far from (0, 0, z), and nearer than the rest.
-    for (float z : {1.0f, 0.999f, 0.99f}) {
-        std::uint32_t a = 0, b = 0;
-        float da = 0.0f, db = 0.0f;
-        ASSERT_TRUE(grid.nearest(Point(0.0f, 0.0f, z), 0.05f, a, da));
-        ASSERT_TRUE(organized.nearest(Point(0.0f, 0.0f, z), 0.05f, grid, b, db));
-        EXPECT_EQ(wall.points[a], Point(-0.004f, 0.0f, 1.0f));
-        EXPECT_EQ(a, b);
-        EXPECT_EQ(da, db);
+    const std::vector<Point> queries = {Point(0.0f, 0.0f, 1.0f), Point(0.0f, 0.0f, 0.999f), Point(0.0f, 0.0f, 0.99f)};
+    std::vector<std::uint32_t> in_image(queries.size());
+    std::vector<float> image_distances(queries.size());
+    organized.nearest_batch(queries, 0.05f, in_image, image_distances);
+    for (std::size_t q = 0; q < queries.size(); ++q) {
+        std::uint32_t index = 0;
+        float distance = 0.0f;
+        ASSERT_TRUE(grid.nearest(queries[q], 0.05f, index, distance));
+        EXPECT_EQ(wall.points[index], Point(-0.004f, 0.0f, 1.0f));
+        EXPECT_EQ(in_image[q], index);
+        EXPECT_EQ(image_distances[q], distance);
     }
+    EXPECT_FALSE(organized.built_fallback());  // the first window settled them
 }
 
-// The fit recovers the synthetic views' pinhole (f = 525, centre in the middle of the image) from
-// the points and their pixels, on narrow and wide images; an image with no width has no camera.
-TEST(FitCamera, RecoversThePinholeOfASyntheticView)
+// Queries no window settles (a cloud of a few points far apart: each point's nearest others lie
+// beyond any window's bound) go to the grid, built then and only then, with the grid's answers.
+TEST(OrganizedNeighbors, BuildsTheFallbackGridOnlyWhenAWindowCannotSettle)
 {
-    for (const auto& [width, height] : {std::pair{160u, 120u}, std::pair{1u << 12, 40u}, std::pair{7u, 300u}}) {
-        const PointCloud cloud = synthetic_view(width, height, 11);
-        const auto camera = fit_camera(cloud);
-        ASSERT_TRUE(camera.has_value()) << width << " x " << height;
-        EXPECT_NEAR(camera->fx, 525.0f, 0.05f) << width << " x " << height;
-        EXPECT_NEAR(camera->fy, 525.0f, 0.05f) << width << " x " << height;
-        EXPECT_NEAR(camera->cx, 0.5f * float(width - 1), 0.05f) << width << " x " << height;
-        EXPECT_NEAR(camera->cy, 0.5f * float(height - 1), 0.05f) << width << " x " << height;
-        EXPECT_LT(camera->max_residual, 0.01f) << width << " x " << height;
+    const PointCloud view = synthetic_view(160, 120, 7);
+    const auto camera = fit_camera(view);
+    ASSERT_TRUE(camera.has_value());
+    PointCloud sparse;
+    sparse.width = view.width;
+    sparse.height = view.height;
+    for (std::size_t i = 0; i < view.size(); i += 997) {
+        sparse.points.push_back(view.points[i]);
+        sparse.source_index.push_back(view.source_index[i]);
     }
-    PointCloud no_width = synthetic_view(40, 30, 1);
-    no_width.width = 0;
-    EXPECT_FALSE(fit_camera(no_width).has_value());
+    const OrganizedNeighbors organized(sparse, *camera, 3, 0.05f);
+    const NeighborGrid grid(sparse.points, 0.05f);
+    EXPECT_FALSE(organized.built_fallback());
+    const std::size_t k = 5;
+    std::vector<std::uint32_t> a(sparse.size() * k), b(a.size());
+    std::vector<float> da(a.size()), db(a.size());
+    organized.knn_search_batch(sparse.points, int(k), a, da);
+    grid.knn_search_batch(sparse.points, int(k), b, db);
+    EXPECT_EQ(a, b);
+    EXPECT_EQ(da, db);
+    EXPECT_TRUE(organized.built_fallback());
 }
 
-TEST(OrganizedNeighbors, RefusesAnUnorganizedCloudAndAForeignGrid)
+TEST(OrganizedNeighbors, RefusesAnUnorganizedCloudAndBadArguments)
 {
     const PointCloud cloud = synthetic_view(40, 30, 1);
     const auto camera = fit_camera(cloud);
@@ -196,12 +214,14 @@ TEST(OrganizedNeighbors, RefusesAnUnorganizedCloudAndAForeignGrid)
     flat.source_index.clear();
     EXPECT_FALSE(fit_camera(flat).has_value());
     EXPECT_THROW(OrganizedNeighbors(flat, *camera), Error);
+    EXPECT_THROW(OrganizedNeighbors(cloud, *camera, 0), Error);
+    EXPECT_THROW(OrganizedNeighbors(cloud, *camera, 3, 0.0f), Error);
+    EXPECT_THROW(OrganizedNeighbors(cloud, *camera, 3, std::numeric_limits<float>::quiet_NaN()), Error);
     const OrganizedNeighbors organized(cloud, *camera);
-    const std::vector<Point> other = cloud.points;
-    const NeighborGrid foreign(other, 0.01f);
-    std::vector<std::uint32_t> indices(1);
-    std::vector<float> distances(1);
-    EXPECT_THROW(organized.knn_search_batch(std::span(cloud.points).first(1), 1, foreign, indices, distances), Error);
+    std::vector<std::uint32_t> indices(2);
+    std::vector<float> distances(2);
+    EXPECT_THROW(organized.knn_search_batch(std::span(cloud.points).first(1), 1, indices, distances), Error);
+    EXPECT_THROW(organized.nearest_batch(std::span(cloud.points).first(1), 0.01f, indices, distances), Error);
 }
 
 TEST(Camera, FitRecoversThePinhole)

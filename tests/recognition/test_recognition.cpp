@@ -373,14 +373,14 @@ TEST(RefineAndVerify, TheDepthImageChangesNothing)
     const NeighborGrid grid(scene.points, normal_grid_cell);
     const auto camera = fit_camera(scene);
     ASSERT_TRUE(camera.has_value());
-    const OrganizedNeighbors organized(scene, *camera);
+    const OrganizedNeighbors organized(scene, *camera, 3, normal_grid_cell);
     const RecognitionParams defaults;
     const std::vector<Instance> by_grid = refine_and_verify(hypotheses, model.points, model.normals,
                                                             make_scene_evidence(scene, grid, camera), defaults.refine,
                                                             defaults.verify);
-    const std::vector<Instance> by_image =
-        refine_and_verify(hypotheses, model.points, model.normals, make_scene_evidence(scene, grid, camera, &organized),
-                          defaults.refine, defaults.verify);
+    const std::vector<Instance> by_image = refine_and_verify(hypotheses, model.points, model.normals,
+                                                             make_scene_evidence(scene, organized), defaults.refine,
+                                                             defaults.verify);
     ASSERT_EQ(by_grid.size(), 2u);
     ASSERT_EQ(by_image.size(), by_grid.size());
     for (std::size_t i = 0; i < by_grid.size(); ++i) {

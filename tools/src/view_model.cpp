@@ -4,7 +4,6 @@
 #include <numbers>
 
 #include "mfpc/core/error.hpp"
-#include "mfpc/index/neighbor_grid.hpp"
 #include "mfpc/index/organized_neighbors.hpp"
 #include "mfpc/kernels/uniform_sampling.hpp"
 #include "mfpc/recognition/features.hpp"
@@ -43,10 +42,9 @@ Model prepare_view_model(const SceneShape& shape, const PointCloud& surface, con
             scene.camera = camera_looking_at(eye, target);
             const Scan scan = scan_scene(scene, views.sensor, views.seed + view_index);
             if (scan.cloud.size() < 3) continue;
-            const NeighborGrid grid(scan.cloud.points, normal_grid_cell);
-            const OrganizedNeighbors organized(scan.cloud, scan.camera);
+            const OrganizedNeighbors organized(scan.cloud, scan.camera, 3, normal_grid_cell);
             const auto keypoints = uniform_sampling(scan.cloud.points, params.keypoint_radius);
-            const Features view = describe_keypoints(scan.cloud.points, keypoints, grid, params, timings, &organized);
+            const Features view = describe_keypoints(scan.cloud.points, keypoints, organized, params, timings);
 
             // Into the object's frame: keypoints by the camera pose, frame axes (rows) by its rotation.
             const Eigen::Matrix3f rotation = scene.camera.linear();

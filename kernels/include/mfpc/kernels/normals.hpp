@@ -18,10 +18,11 @@ struct NormalParams {
 // NormalEstimation. A normal that cannot be defined (fewer than 3 neighbours, or a degenerate
 // neighbourhood: all at one spot or on one line, the middle eigenvalue below 1e-7 of the largest)
 // is NaN, and later stages skip it. normals.size() must equal queries.size().
-// When the surface is an organized cloud, `organized` (built over it) finds the neighbours in the
-// depth image first, with the same results, faster.
 void estimate_normals(std::span<const Point> queries, const NeighborGrid& surface, const NormalParams& params,
-                      std::span<Point> normals, const OrganizedNeighbors* organized = nullptr);
+                      std::span<Point> normals);
+// The same over an organized cloud (a sensor's depth image), with the same results, faster.
+void estimate_normals(std::span<const Point> queries, const OrganizedNeighbors& surface, const NormalParams& params,
+                      std::span<Point> normals);
 
 // Flips each normal whose dot product with its reference normal is negative (a closed model has no
 // viewpoint to face; its own outward normals orient the estimated ones). A non-finite reference

@@ -38,17 +38,18 @@ inline constexpr float normal_grid_cell = 0.005f;
 
 // Normals, BOARD frames and SHOT descriptors at `keypoints` (indices into surface) over the search
 // surface `surface`. Normals are estimated only for the surface points inside some keypoint's
-// support, from their `normal_k` nearest neighbours in `normal_source` (a grid over the surface
-// itself, or over a denser cloud that holds the same geometry; cell normal_grid_cell). When that
-// cloud is organized, `organized` (built over it) speeds the neighbour search up without changing
-// the result.
+// support, from their `normal_k` nearest neighbours in `normal_source`: a grid over the surface
+// itself, or over a denser cloud that holds the same geometry (cell normal_grid_cell); or, when
+// that cloud is organized, its depth image (the same normals, faster).
 // Estimated normals face the sensor at the origin, which is right for a view from a sensor. A
 // model sampled all around an object has no such viewpoint: its own normals (`orientation`, one
 // per surface point, e.g. a mesh's outward normals) then say which way each estimated normal
 // points; non-finite ones leave the sensor's choice.
 Features describe_keypoints(std::span<const Point> surface, std::span<const std::uint32_t> keypoints,
                             const NeighborGrid& normal_source, const FeatureParams& params,
-                            FeatureTimings* timings = nullptr, const OrganizedNeighbors* organized = nullptr,
-                            std::span<const Point> orientation = {});
+                            FeatureTimings* timings = nullptr, std::span<const Point> orientation = {});
+Features describe_keypoints(std::span<const Point> surface, std::span<const std::uint32_t> keypoints,
+                            const OrganizedNeighbors& normal_source, const FeatureParams& params,
+                            FeatureTimings* timings = nullptr, std::span<const Point> orientation = {});
 
 }  // namespace mfpc

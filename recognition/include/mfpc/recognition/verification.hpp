@@ -17,15 +17,17 @@ namespace mfpc {
 // organized scenes, its depth image and camera for the free-space test.
 struct SceneEvidence {
     std::span<const Point> points;
-    const NeighborGrid* grid = nullptr;   // over points; cells of a few sensor spacings suit it best
+    // Where the scene points near a model point are found: the depth image of an organized scene,
+    // else a grid over points (cells of a few sensor spacings suit it best).
+    const OrganizedNeighbors* organized = nullptr;
+    const NeighborGrid* grid = nullptr;
     std::optional<Camera> camera;
-    std::vector<float> depth;             // camera->width * height, NaN where no return
-    const OrganizedNeighbors* organized = nullptr;  // over points and grid, when given: the same answers, faster
+    std::vector<float> depth;  // camera->width * height, NaN where no return
 };
 // `camera`: fit_camera(scene), or nothing for an unorganized scene (no free-space test then).
-// `organized`: built over the scene with that camera, or nothing.
-SceneEvidence make_scene_evidence(const PointCloud& scene, const NeighborGrid& grid, std::optional<Camera> camera,
-                                  const OrganizedNeighbors* organized = nullptr);
+SceneEvidence make_scene_evidence(const PointCloud& scene, const NeighborGrid& grid, std::optional<Camera> camera);
+// An organized scene: `organized` built over it, with its camera.
+SceneEvidence make_scene_evidence(const PointCloud& scene, const OrganizedNeighbors& organized);
 
 // ICP (point to point, Umeyama per iteration) of each instance's model onto the scene, starting
 // from its pose; then fitness: the fraction of the model points the sensor could have seen (normal
