@@ -9,6 +9,8 @@
 #include <string>
 #include <utility>
 
+#include <Eigen/Core>
+
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
 #include <tbb/task_arena.h>
@@ -17,6 +19,15 @@
 #include "nearest_candidates.hpp"
 
 namespace mfpc {
+namespace {
+
+// The relative margin between a window's bound and a distance that it settles: far above the float
+// rounding of squared distances (a few 1e-7) and of a fitted camera's residual, so that a point
+// outside the window that is as near as the answer (a tie, which the lower index may win) or
+// nearer by a rounding error leaves the query to a wider window.
+constexpr double bound_margin = 1e-4;
+
+}  // namespace
 
 struct OrganizedNeighbors::Fallback {
     std::once_flag once;
@@ -32,10 +43,39 @@ OrganizedNeighbors::OrganizedNeighbors(const PointCloud& cloud, const Camera& ca
                                                 std::to_string(camera.width) + " x " + std::to_string(camera.height) +
                                                 " grid");
     if (window < 1) throw Error("organized neighbours", "the window must be at least 1 pixel");
+    if (!(camera.fx > 0.0f) || !(camera.fy > 0.0f) || !std::isfinite(camera.fx) || !std::isfinite(camera.fy) ||
+        !std::isfinite(camera.cx) || !std::isfinite(camera.cy) || !(camera.max_residual >= 0.0f) ||
+        !std::isfinite(camera.max_residual))
+        throw Error("organized neighbours", "the camera's focal lengths, centre and residual must be finite, the "
+                                            "focal lengths positive");
     if (!(fallback_cell > 0.0f) || !std::isfinite(fallback_cell))
         throw Error("organized neighbours", "the fallback grid's cell must be a positive number");
+    // What the window bounds and the fallback grid rely on, checked here rather than met as a
+    // wrong answer or as an error in the middle of some later search: every point in front of the
+    // sensor, one point per pixel, and an extent the grid's cells can number.
     pixels_.assign(cloud.source_size(), -1);
-    for (std::size_t i = 0; i < cloud.size(); ++i) pixels_[cloud.source_position(i)] = std::int32_t(i);
+    Eigen::Array3f low = Eigen::Array3f::Constant(std::numeric_limits<float>::infinity());
+    Eigen::Array3f high = -low;
+    for (std::size_t i = 0; i < cloud.size(); ++i) {
+        const Point& p = cloud.points[i];
+        if (!p.allFinite() || !(p.z() > 0.0f))
+            throw Error("organized neighbours",
+                        "point " + std::to_string(i) + " is not finite or not in front of the sensor");
+        std::int32_t& pixel = pixels_[cloud.source_position(i)];
+        if (pixel >= 0)
+            throw Error("organized neighbours", "points " + std::to_string(pixel) + " and " + std::to_string(i) +
+                                                    " share a pixel");
+        pixel = std::int32_t(i);
+        low = low.min(p.array());
+        high = high.max(p.array());
+    }
+    // NeighborGrid's limits (cells per axis below 2^21, coordinates within 1e9 cells), with a
+    // margin for the floors' rounding.
+    const double inverse = 1.0 / double(fallback_cell);
+    if (!cloud.empty() && (((high - low).cast<double>() * inverse + 3.0 >= double((1 << 21) - 1)).any() ||
+                           (low.abs().max(high.abs()).cast<double>() * inverse > 0.5e9).any()))
+        throw Error("organized neighbours", "the cloud spans too many fallback grid cells of " +
+                                                std::to_string(fallback_cell) + " m; use a larger cell");
     // A k-nearest query the first window cannot settle (an oblique surface, a depth edge, a far
     // and sparse background: 8% of a Kinect view) tries a window twice as wide, which settles all
     // but 2% of those, and so on. The grid, the last resort, is far slower for such queries (its
@@ -66,6 +106,7 @@ std::vector<OrganizedNeighbors::Stage> OrganizedNeighbors::make_stages(int first
 
 const NeighborGrid& OrganizedNeighbors::fallback() const
 {
+    if (!fallback_) throw Error("organized neighbours", "searched after being moved from");
     std::call_once(fallback_->once, [&] {
         // Isolated: the grid's parallel build must not take up a task of the caller's that needs
         // the grid too, and would wait on this very call.
@@ -76,22 +117,24 @@ const NeighborGrid& OrganizedNeighbors::fallback() const
     return *fallback_->grid;
 }
 
-bool OrganizedNeighbors::built_fallback() const { return fallback_->built; }
+bool OrganizedNeighbors::built_fallback() const { return fallback_ && fallback_->built; }
 
 bool OrganizedNeighbors::affordable(const Stage& stage, std::size_t open, std::size_t& budget) const
 {
-    // The listed windows always run; the wider ones while the pixels they read stay within a
-    // budget of a few per cloud point: a window's pixel costs a small fraction of what a point
-    // costs the grid's build, so a search that gives up on the windows has lost a fraction of a
-    // build, and most wide searches (a few hundred queries on a Kinect view) never need one.
     if (!stage.offsets.empty()) return true;
-    const std::size_t candidates = stage.candidates();
-    if (open > budget / candidates) return false;
-    budget -= open * candidates;
+    if (open > budget / stage.pixels) return false;
+    budget -= open * stage.pixels;
     return true;
 }
 
-std::size_t OrganizedNeighbors::wide_budget() const { return 4 * std::max<std::size_t>(points_.size(), 1024); }
+std::size_t OrganizedNeighbors::wide_budget() const
+{
+    // A window's pixel costs about a tenth of what a point costs the grid's build (a pixel load, a
+    // point load, a distance, against a sort and a copy): at four pixels a point, a search that gives
+    // up on the windows has lost well under a build. A Kinect view's wide searches (a few hundred
+    // queries) stay far below it and never need the grid.
+    return 4 * std::max<std::size_t>(points_.size(), 1024);
+}
 
 bool OrganizedNeighbors::pixel_of(const Point& center, long& u, long& v) const
 {
@@ -128,9 +171,13 @@ OrganizedNeighbors::Stage OrganizedNeighbors::make_stage(int window, bool listed
     // the whole image, and needs no more offsets (nor a product that overflows).
     // A point outside the window projects at least window + 1 pixels from the query's pixel, the
     // query at most half a pixel from it, the point at most max_residual from its own.
-    Stage stage{window, {}, {}, std::min<long>(window, long(std::max(camera_.width, camera_.height))),
-                double(window) + 0.5 - double(camera_.max_residual)};
+    Stage stage;
+    stage.reach = std::min<long>(window, long(std::max(camera_.width, camera_.height)));
+    stage.slack = double(window) + 0.5 - double(camera_.max_residual);
     stage.whole = stage.reach + 1 >= long(std::max(camera_.width, camera_.height));
+    // The most pixels one window reads: clipped to the image.
+    stage.pixels = std::size_t(std::min<long>(2 * stage.reach + 1, long(camera_.width))) *
+                   std::size_t(std::min<long>(2 * stage.reach + 1, long(camera_.height)));
     if (!listed) return stage;
     for (long dy = -stage.reach; dy <= stage.reach; ++dy)
         for (long dx = -stage.reach; dx <= stage.reach; ++dx) stage.offsets.emplace_back(int(dx), int(dy));
@@ -180,6 +227,7 @@ void OrganizedNeighbors::knn_search_batch(std::span<const Point> queries, int k,
     std::vector<std::uint8_t> settled(queries.size(), 0);
     std::size_t budget = wide_budget();
     for (const Stage& stage : stages_) {
+        if (stage.slack <= 0.0 && !stage.whole) continue;
         if (!affordable(stage, open.size(), budget)) break;
         search_window(stage, queries, open, want, indices, squared_distances, settled);
         std::erase_if(open, [&](std::uint32_t q) { return settled[q] != 0; });
@@ -202,10 +250,8 @@ void OrganizedNeighbors::search_window(const Stage& stage, std::span<const Point
                                        std::span<std::uint32_t> indices, std::span<float> squared_distances,
                                        std::span<std::uint8_t> settled) const
 {
-    if (stage.slack <= 0.0 && !stage.whole) return;
-
     const long reach = stage.reach;
-    auto inside = [&](long u, long v) { return this->inside(stage, u, v); };
+    auto window_in_image = [&](long u, long v) { return inside(stage, u, v); };
     // The windows of a foveated cloud's queries spread over much of the image (a few MB of pixels
     // and points, past the L2 cache), and each candidate is a pixel load, then a point load that
     // depends on it: the search waited on memory. Four queries ahead, the window's pixel rows are
@@ -213,7 +259,7 @@ void OrganizedNeighbors::search_window(const Stage& stage, std::span<const Point
     // cloud, around its centre pixel's point).
     auto prefetch_pixels = [&](std::size_t o) {
         long u, v;
-        if (o >= open.size() || !pixel_of(queries[open[o]], u, v) || !inside(u, v)) return;
+        if (o >= open.size() || !pixel_of(queries[open[o]], u, v) || !window_in_image(u, v)) return;
         for (long y = v - reach; y <= v + reach; ++y) {
             const std::int32_t* row = pixels_.data() + std::size_t(y) * camera_.width + std::size_t(u);
             __builtin_prefetch(row - reach);
@@ -222,7 +268,7 @@ void OrganizedNeighbors::search_window(const Stage& stage, std::span<const Point
     };
     auto prefetch_points = [&](std::size_t o) {
         long u, v;
-        if (o >= open.size() || !pixel_of(queries[open[o]], u, v) || !inside(u, v)) return;
+        if (o >= open.size() || !pixel_of(queries[open[o]], u, v) || !window_in_image(u, v)) return;
         for (long y = v - reach; y <= v + reach; ++y) {
             const std::int32_t i = pixels_[std::size_t(y) * camera_.width + std::size_t(u)];
             if (i < 0) continue;
@@ -246,7 +292,7 @@ void OrganizedNeighbors::search_window(const Stage& stage, std::span<const Point
             long u, v;
             if (!pixel_of(center, u, v)) continue;
             best.clear();
-            if (!stage.offsets.empty() && inside(u, v)) {
+            if (!stage.offsets.empty() && window_in_image(u, v)) {
                 // The whole window lies in the image (most queries): no pixel needs a bounds check.
                 // All the window's distances first, then the selection: with no branch between
                 // them, the window's loads overlap, where keep_nearest's mispredicted compares
@@ -272,11 +318,10 @@ void OrganizedNeighbors::search_window(const Stage& stage, std::span<const Point
             }
             if (best.size() < want) continue;
             // Every point outside the window lies at least outside_bound away: strictly inside, with
-            // a relative margin for the float distances: a tie with an unseen point must go on (to a
-            // wider window, then the grid, which breaks it by index). A window over the whole image
-            // has seen every point.
+            // bound_margin, or the query goes on to a wider window, then the grid. A window over the
+            // whole image has seen every point.
             if (!stage.whole &&
-                !(double(best.back().first) < outside_bound_squared(stage, center) * (1.0 - 1e-4)))
+                !(double(best.back().first) < outside_bound_squared(stage, center) * (1.0 - bound_margin)))
                 continue;
             for (std::size_t j = 0; j < want; ++j) {
                 indices[q * want + j] = best[j].second;
@@ -296,8 +341,11 @@ void OrganizedNeighbors::nearest_batch(std::span<const Point> queries, float rad
     if (!(radius >= 0.0f) || points_.empty() || queries.empty()) return;  // NeighborGrid::nearest finds nothing
     const float radius2 = radius * radius;
 
-    std::vector<std::uint32_t> open(queries.size());
-    for (std::size_t q = 0; q < queries.size(); ++q) open[q] = std::uint32_t(q);
+    // A query that is not finite is near nothing (NeighborGrid::nearest says so too).
+    std::vector<std::uint32_t> open;
+    for (std::size_t q = 0; q < queries.size(); ++q)
+        if (queries[q].allFinite()) open.push_back(std::uint32_t(q));
+    if (open.empty()) return;
     std::vector<std::uint8_t> settled(queries.size(), 0);
     std::size_t budget = wide_budget();
     for (const Stage& stage : nearest_stages_) {
@@ -322,9 +370,9 @@ void OrganizedNeighbors::nearest_batch(std::span<const Point> queries, float rad
                 const bool found = least != std::numeric_limits<std::uint64_t>::max() && best < radius2;
                 // Settled when every point outside the window is farther than the window's nearest
                 // (strictly: a tie goes to the lower index, which may lie outside), or, for a miss,
-                // at least the radius away; with the k-nearest search's margin.
+                // at least the radius away; with bound_margin.
                 if (!stage.whole) {
-                    const double limit = outside_bound_squared(stage, center) * (1.0 - 1e-4);
+                    const double limit = outside_bound_squared(stage, center) * (1.0 - bound_margin);
                     if (!(found ? double(best) < limit : double(radius2) <= limit)) continue;
                 }
                 if (found) {

@@ -34,8 +34,8 @@ void normals_from(std::span<const Point> queries, std::span<const Point> surface
         std::fill(normals.begin(), normals.end(), undefined);
         return;
     }
-    // Neighbours in batches (queries sharing a grid cell share their candidates), then one PCA per
-    // query; batches bound the neighbour buffer.
+    // Neighbours in batches (a grid's queries that share a cell share their candidates; the depth
+    // image's prefetch ahead), then one PCA per query; batches bound the neighbour buffer.
     constexpr std::size_t batch = 1 << 16;
     std::vector<std::uint32_t> neighbours(std::min(batch, queries.size()) * k);
     std::vector<float> squared_distances(neighbours.size());

@@ -9,6 +9,7 @@
 #include "mfpc/core/camera.hpp"
 #include "mfpc/core/error.hpp"
 #include "mfpc/index/neighbor_grid.hpp"
+#include "mfpc/index/organized_neighbors.hpp"
 #include "mfpc/kernels/foveate.hpp"
 #include "mfpc/kernels/uniform_sampling.hpp"
 #include "mfpc/recognition/verification.hpp"

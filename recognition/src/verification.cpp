@@ -70,6 +70,11 @@ struct Scratch {
     std::vector<std::uint32_t> nearest;
     std::vector<float> squared_distances;
     std::vector<std::uint8_t> wanted;
+    // The organized scene's batch search: the wanted points, their numbers and what it found.
+    std::vector<Point> queries;
+    std::vector<std::uint32_t> asked;
+    std::vector<std::uint32_t> found;
+    std::vector<float> found_squared;
     explicit Scratch(std::size_t points) : placed(points), nearest(points), squared_distances(points), wanted(points) {}
 };
 
@@ -79,28 +84,29 @@ void place(const Pose& pose, std::span<const Point> model, std::span<Point> plac
 }
 
 // The nearest scene point within `radius` of each of scratch.placed that `wanted` marks (all when
-// empty), in parallel over the points; misses and unwanted points get no_match. Written per point,
-// so what is made of them is the same at any thread count.
+// empty), the searches in parallel; misses and unwanted points get no_match. Written per point, so
+// what is made of them is the same at any thread count.
 constexpr std::uint32_t no_match = std::numeric_limits<std::uint32_t>::max();
 void nearest_scene_points(std::span<const std::uint8_t> wanted, const SceneEvidence& scene, float radius,
                           Scratch& scratch)
 {
     if (scene.organized) {
-        std::vector<Point> queries;
-        std::vector<std::uint32_t> asked;
+        // The wanted points side by side for the batch search, then back in place.
+        scratch.queries.clear();
+        scratch.asked.clear();
         for (std::size_t i = 0; i < scratch.placed.size(); ++i)
             if (wanted.empty() || wanted[i]) {
-                queries.push_back(scratch.placed[i]);
-                asked.push_back(std::uint32_t(i));
+                scratch.queries.push_back(scratch.placed[i]);
+                scratch.asked.push_back(std::uint32_t(i));
             }
-        std::vector<std::uint32_t> found(queries.size());
-        std::vector<float> squared(queries.size());
-        scene.organized->nearest_batch(queries, radius, found, squared);
+        scratch.found.resize(scratch.queries.size());
+        scratch.found_squared.resize(scratch.queries.size());
+        scene.organized->nearest_batch(scratch.queries, radius, scratch.found, scratch.found_squared);
         std::fill(scratch.nearest.begin(), scratch.nearest.end(), no_match);
-        for (std::size_t q = 0; q < asked.size(); ++q)
-            if (found[q] != OrganizedNeighbors::no_point) {
-                scratch.nearest[asked[q]] = found[q];
-                scratch.squared_distances[asked[q]] = squared[q];
+        for (std::size_t q = 0; q < scratch.asked.size(); ++q)
+            if (scratch.found[q] != OrganizedNeighbors::no_point) {
+                scratch.nearest[scratch.asked[q]] = scratch.found[q];
+                scratch.squared_distances[scratch.asked[q]] = scratch.found_squared[q];
             }
         return;
     }

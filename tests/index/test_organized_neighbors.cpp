@@ -1,9 +1,12 @@
 #include <cmath>
+#include <cstring>
 #include <limits>
 #include <random>
+#include <utility>
 #include <vector>
 
 #include <gtest/gtest.h>
+#include <tbb/parallel_for.h>
 
 #include "mfpc/core/camera.hpp"
 #include "mfpc/core/cloud_io.hpp"
@@ -53,13 +56,16 @@ void expect_same_as_grid(const PointCloud& cloud, int k, std::size_t stride, flo
     queries.push_back(Point(0.01f, 0.02f, 0.95f));  // off the cloud, inside the image
     queries.push_back(Point(5.0f, 0.0f, 1.0f));     // outside the image
     queries.push_back(Point(0.0f, 0.0f, -1.0f));    // behind the sensor
+    queries.push_back(Point(std::numeric_limits<float>::quiet_NaN(), 0.0f, 1.0f));
+    queries.push_back(Point(0.0f, std::numeric_limits<float>::infinity(), 1.0f));
     const std::size_t want = std::min<std::size_t>(std::size_t(k), cloud.size());
     std::vector<std::uint32_t> a(queries.size() * want), b(queries.size() * want);
     std::vector<float> da(a.size()), db(b.size());
     grid.knn_search_batch(queries, k, a, da);
     organized.knn_search_batch(queries, k, b, db);
     EXPECT_EQ(a, b);
-    EXPECT_EQ(da, db);
+    // Bit for bit: a query that is not finite has NaN distances, in both.
+    EXPECT_EQ(0, std::memcmp(da.data(), db.data(), da.size() * sizeof(float)));
 }
 
 // Queries about the cloud's points, as ICP and verification ask: on the surface, a little off it
@@ -176,13 +182,10 @@ TEST(OrganizedNeighbors, NearestBreaksATieByTheLowerIndex)
     EXPECT_FALSE(organized.built_fallback());  // the first window settled them
 }
 
-// Queries no window settles (a cloud of a few points far apart: each point's nearest others lie
-// beyond any window's bound) go to the grid, built then and only then, with the grid's answers.
-TEST(OrganizedNeighbors, BuildsTheFallbackGridOnlyWhenAWindowCannotSettle)
+// A cloud of a few points far apart: each point's nearest others lie beyond every window the
+// budget allows (only a window over the whole image would do, at a whole image per query).
+PointCloud sparse_view(const PointCloud& view)
 {
-    const PointCloud view = synthetic_view(160, 120, 7);
-    const auto camera = fit_camera(view);
-    ASSERT_TRUE(camera.has_value());
     PointCloud sparse;
     sparse.width = view.width;
     sparse.height = view.height;
@@ -190,17 +193,80 @@ TEST(OrganizedNeighbors, BuildsTheFallbackGridOnlyWhenAWindowCannotSettle)
         sparse.points.push_back(view.points[i]);
         sparse.source_index.push_back(view.source_index[i]);
     }
-    const OrganizedNeighbors organized(sparse, *camera, 3, 0.05f);
+    return sparse;
+}
+
+// Queries the windows cannot settle go to the grid, built then and only then, with the grid's
+// answers; several threads may ask for it at once.
+TEST(OrganizedNeighbors, BuildsTheFallbackGridOnlyWhenAWindowCannotSettle)
+{
+    const PointCloud view = synthetic_view(160, 120, 7);
+    const auto camera = fit_camera(view);
+    ASSERT_TRUE(camera.has_value());
+    const PointCloud sparse = sparse_view(view);
     const NeighborGrid grid(sparse.points, 0.05f);
-    EXPECT_FALSE(organized.built_fallback());
+    {
+        const OrganizedNeighbors organized(sparse, *camera, 3, 0.05f);
+        EXPECT_FALSE(organized.built_fallback());
+        const std::size_t k = 5;
+        std::vector<std::uint32_t> a(sparse.size() * k), b(a.size());
+        std::vector<float> da(a.size()), db(a.size());
+        organized.knn_search_batch(sparse.points, int(k), a, da);
+        grid.knn_search_batch(sparse.points, int(k), b, db);
+        EXPECT_EQ(a, b);
+        EXPECT_EQ(da, db);
+        EXPECT_TRUE(organized.built_fallback());
+    }
+    // Several searches at once, each needing the grid: one builds it, the others wait for it.
+    const OrganizedNeighbors organized(sparse, *camera, 3, 0.05f);
     const std::size_t k = 5;
-    std::vector<std::uint32_t> a(sparse.size() * k), b(a.size());
+    std::vector<std::uint32_t> expected(sparse.size() * k);
+    std::vector<float> expected_distances(expected.size());
+    grid.knn_search_batch(sparse.points, int(k), expected, expected_distances);
+    std::vector<std::vector<std::uint32_t>> found(8, std::vector<std::uint32_t>(expected.size()));
+    std::vector<std::vector<float>> distances(8, std::vector<float>(expected.size()));
+    tbb::parallel_for(std::size_t(0), found.size(), [&](std::size_t t) {
+        organized.knn_search_batch(sparse.points, int(k), found[t], distances[t]);
+    });
+    EXPECT_TRUE(organized.built_fallback());
+    for (std::size_t t = 0; t < found.size(); ++t) {
+        EXPECT_EQ(found[t], expected) << t;
+        EXPECT_EQ(distances[t], expected_distances) << t;
+    }
+}
+
+// Queries well off the surface need windows wider than the listed two, read row by row: within
+// the budget they settle there, with the grid's answers and no grid built.
+TEST(OrganizedNeighbors, WideWindowsSettleWithoutTheGrid)
+{
+    const PointCloud view = synthetic_view(160, 120, 9);
+    const auto camera = fit_camera(view);
+    ASSERT_TRUE(camera.has_value());
+    const NeighborGrid grid(view.points, 0.02f);
+    const OrganizedNeighbors organized(view, *camera, 3, 0.02f);
+    // 2 to 3 cm in front of the box face at z = 0.9 (the nearest point 10-20 pixels away).
+    std::vector<Point> queries;
+    for (int i = 0; i < 4; ++i) queries.push_back(Point(-0.04f + 0.02f * float(i), 0.01f, 0.88f - 0.003f * float(i)));
+    std::vector<std::uint32_t> found(queries.size());
+    std::vector<float> distances(queries.size());
+    organized.nearest_batch(queries, 0.1f, found, distances);
+    EXPECT_FALSE(organized.built_fallback());
+    const std::size_t k = 20;
+    std::vector<std::uint32_t> a(queries.size() * k), b(a.size());
     std::vector<float> da(a.size()), db(a.size());
-    organized.knn_search_batch(sparse.points, int(k), a, da);
-    grid.knn_search_batch(sparse.points, int(k), b, db);
+    organized.knn_search_batch(queries, int(k), a, da);
+    EXPECT_FALSE(organized.built_fallback());
+    grid.knn_search_batch(queries, int(k), b, db);
     EXPECT_EQ(a, b);
     EXPECT_EQ(da, db);
-    EXPECT_TRUE(organized.built_fallback());
+    for (std::size_t q = 0; q < queries.size(); ++q) {
+        std::uint32_t index = 0;
+        float distance = 0.0f;
+        ASSERT_TRUE(grid.nearest(queries[q], 0.1f, index, distance));
+        EXPECT_GT(distance, 0.015f * 0.015f) << q;  // far enough to need the wide windows
+        EXPECT_EQ(found[q], index);
+        EXPECT_EQ(distances[q], distance);
+    }
 }
 
 TEST(OrganizedNeighbors, RefusesAnUnorganizedCloudAndBadArguments)
@@ -217,11 +283,27 @@ TEST(OrganizedNeighbors, RefusesAnUnorganizedCloudAndBadArguments)
     EXPECT_THROW(OrganizedNeighbors(cloud, *camera, 0), Error);
     EXPECT_THROW(OrganizedNeighbors(cloud, *camera, 3, 0.0f), Error);
     EXPECT_THROW(OrganizedNeighbors(cloud, *camera, 3, std::numeric_limits<float>::quiet_NaN()), Error);
-    const OrganizedNeighbors organized(cloud, *camera);
+    Camera flat_lens = *camera;
+    flat_lens.fx = 0.0f;
+    EXPECT_THROW(OrganizedNeighbors(cloud, flat_lens), Error);
+    PointCloud behind = cloud;
+    behind.points[5].z() = -behind.points[5].z();
+    EXPECT_THROW(OrganizedNeighbors(behind, *camera), Error);
+    PointCloud shared_pixel = cloud;
+    shared_pixel.source_index[5] = shared_pixel.source_index[4];
+    EXPECT_THROW(OrganizedNeighbors(shared_pixel, *camera), Error);
+    EXPECT_THROW(OrganizedNeighbors(cloud, *camera, 3, 1e-8f), Error);  // too many grid cells, said at once
+
+    OrganizedNeighbors organized(cloud, *camera);
     std::vector<std::uint32_t> indices(2);
     std::vector<float> distances(2);
     EXPECT_THROW(organized.knn_search_batch(std::span(cloud.points).first(1), 1, indices, distances), Error);
     EXPECT_THROW(organized.nearest_batch(std::span(cloud.points).first(1), 0.01f, indices, distances), Error);
+    const OrganizedNeighbors moved = std::move(organized);
+    EXPECT_FALSE(organized.built_fallback());  // NOLINT(bugprone-use-after-move): what it promises
+    EXPECT_THROW(organized.knn_search_batch(std::span(cloud.points).first(2), 1, indices, distances), Error);
+    moved.nearest_batch(std::span(cloud.points).first(2), 0.01f, indices, distances);
+    EXPECT_EQ(indices[0], 0u);
 }
 
 TEST(Camera, FitRecoversThePinhole)

@@ -389,6 +389,7 @@ TEST(RefineAndVerify, TheDepthImageChangesNothing)
         EXPECT_EQ(by_image[i].coverage, by_grid[i].coverage) << i;
         EXPECT_EQ(by_image[i].free_space_violation, by_grid[i].free_space_violation) << i;
         EXPECT_EQ(by_image[i].rmse, by_grid[i].rmse) << i;
+        EXPECT_EQ(by_image[i].thickness_ratio, by_grid[i].thickness_ratio) << i;
     }
 }
 

@@ -2,8 +2,11 @@
 
 #include <cmath>
 #include <numbers>
+#include <optional>
 
+#include "mfpc/core/camera.hpp"
 #include "mfpc/core/error.hpp"
+#include "mfpc/index/neighbor_grid.hpp"
 #include "mfpc/index/organized_neighbors.hpp"
 #include "mfpc/kernels/uniform_sampling.hpp"
 #include "mfpc/recognition/features.hpp"
@@ -42,9 +45,16 @@ Model prepare_view_model(const SceneShape& shape, const PointCloud& surface, con
             scene.camera = camera_looking_at(eye, target);
             const Scan scan = scan_scene(scene, views.sensor, views.seed + view_index);
             if (scan.cloud.size() < 3) continue;
-            const OrganizedNeighbors organized(scan.cloud, scan.camera, 3, normal_grid_cell);
             const auto keypoints = uniform_sampling(scan.cloud.points, params.keypoint_radius);
-            const Features view = describe_keypoints(scan.cloud.points, keypoints, organized, params, timings);
+            // The scan's neighbours in its depth image, with a fitted camera rather than the
+            // scanner's: the points sit a rounding error off their pixels, and the fit measures how
+            // far, which the image search's bounds must allow for.
+            const std::optional<Camera> fitted = fit_camera(scan.cloud);
+            const auto& points = scan.cloud.points;
+            const Features view =
+                fitted ? describe_keypoints(points, keypoints, OrganizedNeighbors(scan.cloud, *fitted, 3, normal_grid_cell),
+                                            params, timings)
+                       : describe_keypoints(points, keypoints, NeighborGrid(points, normal_grid_cell), params, timings);
 
             // Into the object's frame: keypoints by the camera pose, frame axes (rows) by its rotation.
             const Eigen::Matrix3f rotation = scene.camera.linear();

@@ -26,11 +26,16 @@ namespace mfpc {
 class OrganizedNeighbors {
 public:
     // The cloud's points are referred to, not copied: they must outlive this and stay unchanged.
-    // `camera` fitted to the cloud (fit_camera); `window` the first k-nearest window's half width;
-    // `fallback_cell` the cell of the grid for what the windows cannot settle.
+    // `camera` fitted to the cloud (fit_camera: the bounds take its residual off the windows, so a
+    // camera whose max_residual understates how far points project from their pixels gives wrong
+    // answers); `window` the first k-nearest window's half width; `fallback_cell` the cell of the
+    // grid for what the windows cannot settle. Throws mfpc::Error for a cloud that is not
+    // organized on the camera's grid, a point not finite or at z <= 0, two points on one pixel,
+    // or an extent too large for the fallback grid's cells.
     OrganizedNeighbors(const PointCloud& cloud, const Camera& camera, int window = 3, float fallback_cell = 0.005f);
     OrganizedNeighbors(PointCloud&&, const Camera&, int = 3, float = 0.005f) = delete;
     ~OrganizedNeighbors();
+    // A moved-from object may only be destroyed or assigned to; its searches throw.
     OrganizedNeighbors(OrganizedNeighbors&&) noexcept;
     OrganizedNeighbors& operator=(OrganizedNeighbors&&) noexcept;
 
@@ -49,21 +54,20 @@ public:
     void nearest_batch(std::span<const Point> queries, float radius, std::span<std::uint32_t> indices,
                        std::span<float> squared_distances) const;
 
-    // Whether the fallback grid has been built (the windows settled every query so far).
+    // Whether the fallback grid has been built: false while the windows have settled every query.
     bool built_fallback() const;
 
 private:
     struct Stage {
-        int window;  // as asked; offsets stop at the image's extent, which covers the same pixels
         // The window's pixel offsets, nearest the centre first: near pixels hold near points, so
         // the k best fill early and most later candidates fail a single compare. Empty for the
         // wide windows past the second, which few queries reach: scanned row by row instead.
         std::vector<std::pair<int, int>> offsets;
         std::vector<std::ptrdiff_t> steps;  // the same offsets in the row-major pixel array
-        long reach = 0;                     // the largest offset on either axis: min(window, image extent)
-        double slack = 0.0;  // pixels between the query's projection and any point outside the window
-        bool whole = false;  // the window covers the image from any pixel: it sees every point
-        std::size_t candidates() const { return std::size_t(2 * reach + 1) * std::size_t(2 * reach + 1); }
+        long reach = 0;       // the largest offset on either axis: min(window, image extent)
+        double slack = 0.0;   // pixels between the query's projection and any point outside the window
+        bool whole = false;   // the window covers the image from any pixel: it sees every point
+        std::size_t pixels = 0;  // the most pixels one window reads, clipped to the image
     };
     Stage make_stage(int window, bool listed) const;
     // Windows from `first` doubling until one covers the image; the first two listed.

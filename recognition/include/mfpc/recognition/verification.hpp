@@ -13,7 +13,7 @@
 
 namespace mfpc {
 
-// What verification compares instances with: the scene's points (and a grid over them) and, for
+// What verification compares instances with: the scene's points, an index to search them and, for
 // organized scenes, its depth image and camera for the free-space test.
 struct SceneEvidence {
     std::span<const Point> points;
