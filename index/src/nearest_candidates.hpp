@@ -1,12 +1,18 @@
 #pragma once
 
-// Private to index/: the k-best list shared by the grid and the organized k-nearest searches.
+// Private to index/: the k-best list and the query check shared by the grid and the organized
+// k-nearest searches.
 
 #include <algorithm>
 #include <cassert>
 #include <cstdint>
+#include <span>
+#include <string>
 #include <utility>
 #include <vector>
+
+#include "mfpc/core/error.hpp"
+#include "mfpc/core/point_cloud.hpp"
 
 namespace mfpc::detail {
 
@@ -29,6 +35,15 @@ inline void keep_nearest(std::vector<Candidate>& best, std::size_t want, const C
     std::size_t i = best.size() - 1;
     for (; i > 0 && candidate < best[i - 1]; --i) best[i] = best[i - 1];
     best[i] = candidate;
+}
+
+// The k-nearest searches' check: a query that is not finite has no nearest points (its distances
+// are all NaN or infinite), and its cell does not fit an int. Throws mfpc::Error naming the first.
+inline void check_finite_queries(std::span<const Point> queries)
+{
+    for (std::size_t q = 0; q < queries.size(); ++q)
+        if (!queries[q].allFinite())
+            throw Error("neighbour grid", "k-nearest query " + std::to_string(q) + " is not finite");
 }
 
 }  // namespace mfpc::detail

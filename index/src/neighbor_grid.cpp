@@ -441,6 +441,9 @@ void NeighborGrid::knn_search(const Point& center, int k, std::vector<std::uint3
     indices.clear();
     squared_distances.clear();
     if (points_.empty() || k <= 0) return;
+    // A point not finite has no nearest points (its distances are all NaN or infinite), and its
+    // cell does not fit an int.
+    if (!center.allFinite()) throw Error("neighbour grid", "a k-nearest query is not finite");
     const std::size_t want = std::min<std::size_t>(std::size_t(k), points_.size());
 
     // The best `want` candidates so far. Per thread, so that a query allocates nothing once the
@@ -567,6 +570,7 @@ void NeighborGrid::knn_search_batch(std::span<const Point> queries, int k, std::
     if (indices.size() != queries.size() * want || squared_distances.size() != queries.size() * want)
         throw Error("neighbour grid", "knn_search_batch needs min(k, size) outputs per query");
     if (want == 0 || queries.empty()) return;
+    detail::check_finite_queries(queries);
 
     // Queries grouped by their cell; a query outside the grid's cell range gets a group of its own.
     constexpr std::uint64_t outside = std::numeric_limits<std::uint64_t>::max();

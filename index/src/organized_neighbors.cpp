@@ -220,6 +220,7 @@ void OrganizedNeighbors::knn_search_batch(std::span<const Point> queries, int k,
     if (indices.size() != queries.size() * want || squared_distances.size() != queries.size() * want)
         throw Error("organized neighbours", "knn_search_batch needs min(k, size) outputs per query");
     if (want == 0 || queries.empty()) return;
+    detail::check_finite_queries(queries);
 
     // Queries still to settle, stage after stage.
     std::vector<std::uint32_t> open(queries.size());

@@ -70,6 +70,7 @@ public:
     Neighborhoods radius_neighborhoods(std::span<const Point> centers, float radius) const;
 
     // The min(k, size()) nearest points to `center`, by ascending (squared distance, index).
+    // Throws mfpc::Error for a centre that is not finite (so does knn_search_batch).
     void knn_search(const Point& center, int k, std::vector<std::uint32_t>& indices,
                     std::vector<float>& squared_distances) const;
 
