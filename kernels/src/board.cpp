@@ -2,8 +2,6 @@
 #include <bit>
 #include <cmath>
 #include <cstdint>
-#include <cstring>
-#include <iterator>
 #include <limits>
 #include <numbers>
 #include <string>
@@ -14,6 +12,7 @@
 #include <tbb/parallel_for.h>
 
 #include "atan_fit.hpp"
+#include "lanes.hpp"
 #include "mfpc/core/error.hpp"
 #include "mfpc/kernels/local_reference_frame.hpp"
 
@@ -91,9 +90,8 @@ inline Eigen::Vector3f plane_direction(const Point& axis, const Point& origin, c
     return direction;
 }
 
-// Four lanes, in GCC/Clang vector extensions (SSE2 on x86-64), as in SHOT.
-using Float4 = float __attribute__((vector_size(16)));
-using Int4 = std::int32_t __attribute__((vector_size(16)));
+using detail::Float4;
+using detail::Int4;
 
 // atan2(y, x) moved into [0, 2 pi), four at a time: the polynomial on the octant's t = min / max in
 // [0, 1], reflected into place. Within a few 1e-7 rad of libm's, which cost the frames a third of
@@ -102,15 +100,12 @@ using Int4 = std::int32_t __attribute__((vector_size(16)));
 // subnormal offsets, far below any real one, get a t off the ratio).
 inline Float4 turn_angle(Float4 y, Float4 x)
 {
-    const Float4 ax = std::bit_cast<Float4>(std::bit_cast<Int4>(x) & 0x7fffffff);
-    const Float4 ay = std::bit_cast<Float4>(std::bit_cast<Int4>(y) & 0x7fffffff);
+    const Float4 ax = detail::abs4(x), ay = detail::abs4(y);
     const Float4 big = ax < ay ? ay : ax, small = ay < ax ? ay : ax;
     const Float4 floor = Float4{} + std::numeric_limits<float>::min();
     const Float4 t = small / (big < floor ? floor : big);
     const Float4 s = t * t;
-    Float4 p = Float4{} + float(detail::atan_fit[0]);
-    for (std::size_t i = 1; i < std::size(detail::atan_fit); ++i) p = p * s + float(detail::atan_fit[i]);
-    Float4 a = t * p;
+    Float4 a = t * detail::horner(s, detail::atan_fit, 1.0);
     a = ay > ax ? 0.5f * std::numbers::pi_v<float> - a : a;
     // By the sign bit, as atan2 (the angle of (+0, -0) is pi).
     a = std::bit_cast<Int4>(x) < 0 ? std::numbers::pi_v<float> - a : a;
@@ -258,17 +253,13 @@ void board_frame(const Point& keypoint, const NeighborGrid& surface, std::span<c
     // atan2 gives the same angle in [0, 2 pi) without acos's loss near 0 and pi (up to 3e-4 rad in
     // float). It needs no unit direction, so the offset is not normalized.
     const std::size_t ring_size = scratch.ring.size();
-    const std::size_t padded = (ring_size + 3) / 4 * 4;
+    const std::size_t padded = (ring_size + detail::lanes - 1) / detail::lanes * detail::lanes;
     scratch.ring_y.resize(padded, 0.0f);
     scratch.ring_x.resize(padded, 0.0f);
     scratch.ring_angles.resize(padded);
-    for (std::size_t r = 0; r < padded; r += 4) {
-        Float4 y, x;
-        std::memcpy(&y, scratch.ring_y.data() + r, sizeof y);
-        std::memcpy(&x, scratch.ring_x.data() + r, sizeof x);
-        const Float4 angles = turn_angle(y, x);
-        std::memcpy(scratch.ring_angles.data() + r, &angles, sizeof angles);
-    }
+    for (std::size_t r = 0; r < padded; r += detail::lanes)
+        detail::store(scratch.ring_angles.data() + r,
+                      turn_angle(detail::load(scratch.ring_y.data() + r), detail::load(scratch.ring_x.data() + r)));
     for (std::size_t r = 0; r < ring_size; ++r) {
         const auto [n, d2, normal_cos] = scratch.ring[r];
         const float angle = scratch.ring_angles[r];

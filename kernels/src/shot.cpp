@@ -15,6 +15,7 @@
 #include <tbb/parallel_reduce.h>
 
 #include "atan_fit.hpp"
+#include "lanes.hpp"
 #include "mfpc/core/error.hpp"
 
 #if defined(__SSE2__)
@@ -51,27 +52,18 @@ constexpr std::size_t min_neighbours = 5;
 constexpr double pi = 3.14159265358979323846;
 constexpr float tiny_coordinate = 1e-30f;  // PCL zeroes frame coordinates below this
 
-// Four lanes, in GCC/Clang vector extensions: SSE2 on x86-64 (with intrinsics where the
-// extensions lack an operation or compile it poorly), NEON on ARM, scalar code elsewhere.
-constexpr std::size_t lanes = 4;
-using Float4 = float __attribute__((vector_size(16)));
-using Int4 = std::int32_t __attribute__((vector_size(16)));
+// Four lanes (lanes.hpp), with SSE2 intrinsics where the vector extensions lack an operation or
+// compile it poorly.
+using detail::abs4;
+using detail::Float4;
+using detail::horner;
+using detail::Int4;
+using detail::lanes;
+using detail::load;
 using Double2 = double __attribute__((vector_size(16)));
 using Int2 = std::int32_t __attribute__((vector_size(8)));
 using Long2 = std::int64_t __attribute__((vector_size(16)));
 
-inline Float4 load(const float* p)
-{
-    Float4 v;
-    std::memcpy(&v, p, sizeof v);
-    return v;
-}
-inline Int4 load(const std::int32_t* p)
-{
-    Int4 v;
-    std::memcpy(&v, p, sizeof v);
-    return v;
-}
 template <class T, class V>
 inline void store(std::array<T, lanes>& out, V v)
 {
@@ -89,7 +81,6 @@ inline std::array<Double2, 2> to_doubles(Float4 v)
     return {Double2{v[0], v[1]}, Double2{v[2], v[3]}};
 #endif
 }
-inline Float4 abs4(Float4 v) { return std::bit_cast<Float4>(std::bit_cast<Int4>(v) & 0x7fffffff); }
 // Selections by a mask (comparisons give -1 or 0 per lane) without blends, which SSE2 lacks.
 inline Float4 keep_if(Float4 v, Int4 mask) { return std::bit_cast<Float4>(std::bit_cast<Int4>(v) & mask); }
 inline Float4 keep_unless(Float4 v, Int4 mask) { return std::bit_cast<Float4>(std::bit_cast<Int4>(v) & ~mask); }
@@ -136,16 +127,6 @@ inline Double2 sqrt2(Double2 v)
     for (std::size_t i = 0; i < 2; ++i) v[i] = std::sqrt(v[i]);
     return v;
 #endif
-}
-
-// The polynomial with these coefficients (highest degree first), each scaled by `scale` and
-// rounded to float, evaluated at x by Horner's rule in float.
-template <std::size_t N>
-inline Float4 horner(Float4 x, const double (&coefficients)[N], double scale)
-{
-    Float4 p = Float4{} + float(coefficients[0] * scale);
-    for (std::size_t i = 1; i < N; ++i) p = p * x + float(coefficients[i] * scale);
-    return p;
 }
 
 // atan(t) / (pi / 4) for t in [0, 1].
