@@ -1,7 +1,7 @@
 #pragma once
 
-// Private to index/: the k-best list and the query check shared by the grid and the organized
-// k-nearest searches.
+// Private to index/: what the grid and the organized searches share, so that they give the same
+// answers: the squared distance, the k-best list and the query check.
 
 #include <algorithm>
 #include <cassert>
@@ -15,6 +15,16 @@
 #include "mfpc/core/point_cloud.hpp"
 
 namespace mfpc::detail {
+
+// The squared distance of a point from a query, in float and in this order (what FLANN, PCL's
+// kd-tree, computes): every search computes it so, and so agrees on ties and radius tests.
+inline float squared_distance(const Point& point, const Point& query)
+{
+    const float dx = point.x() - query.x();
+    const float dy = point.y() - query.y();
+    const float dz = point.z() - query.z();
+    return dx * dx + dy * dy + dz * dz;
+}
 
 // (squared distance, point index): ordered so that ties go to the lower index.
 using Candidate = std::pair<float, std::uint32_t>;

@@ -24,14 +24,6 @@ namespace {
 constexpr std::uint64_t empty_row = std::numeric_limits<std::uint64_t>::max();
 constexpr int axis_bits = 21;  // cells per axis < 2^21: a 64-bit key numbers all the cells
 
-inline float squared_distance(const Point& a, const Point& b)
-{
-    const float dx = a.x() - b.x();
-    const float dy = a.y() - b.y();
-    const float dz = a.z() - b.z();
-    return dx * dx + dy * dy + dz * dz;
-}
-
 // Fibonacci hashing: the top bits of the product mix every bit of the key.
 inline std::uint64_t hash_key(std::uint64_t key, int shift) { return (key * 0x9E3779B97F4A7C15ull) >> shift; }
 
@@ -229,7 +221,7 @@ void NeighborGrid::radius_search(const Point& center, float radius, std::vector<
     std::size_t found = 0;
     for (const auto& [begin, end] : ranges) {
         for (std::uint32_t i = begin; i < end; ++i) {
-            const float d2 = squared_distance(ordered_points_[i], center);
+            const float d2 = detail::squared_distance(ordered_points_[i], center);
             indices[found] = ordered_indices_[i];
             squared_distances[found] = d2;
             found += d2 < radius2;
@@ -453,7 +445,7 @@ void NeighborGrid::knn_search(const Point& center, int k, std::vector<std::uint3
     best.reserve(want + 1);
     auto consider = [&](std::uint32_t begin, std::uint32_t end) {
         for (std::uint32_t i = begin; i < end; ++i)
-            detail::keep_nearest(best, want, {squared_distance(ordered_points_[i], center), ordered_indices_[i]});
+            detail::keep_nearest(best, want, {detail::squared_distance(ordered_points_[i], center), ordered_indices_[i]});
     };
 
     const Eigen::Vector3f cf = (center * inverse_cell_).array().floor();
@@ -507,7 +499,7 @@ bool NeighborGrid::nearest(const Point& center, float radius, std::uint32_t& ind
     float best = radius2;
     auto consider = [&](std::uint32_t begin, std::uint32_t end) {
         for (std::uint32_t i = begin; i < end; ++i) {
-            const float d2 = squared_distance(ordered_points_[i], center);
+            const float d2 = detail::squared_distance(ordered_points_[i], center);
             if (d2 < best || (found && d2 == best && ordered_indices_[i] < index)) {
                 if (!(d2 < radius2)) continue;
                 found = true;
@@ -593,7 +585,7 @@ void NeighborGrid::knn_search_batch(std::span<const Point> queries, int k, std::
 
     tbb::parallel_for(tbb::blocked_range<std::size_t>(0, groups.size() - 1, 16), [&](const auto& range) {
         // Candidates of the current block, as separate coordinate arrays so the distance loop
-        // vectorises; the arithmetic is squared_distance()'s, lane by lane, so results are equal.
+        // vectorises; the arithmetic is detail::squared_distance()'s, lane by lane, so results are equal.
         std::vector<float> xs, ys, zs, d2s;
         std::vector<std::uint32_t> ids;
         std::vector<detail::Candidate> best;

@@ -213,6 +213,21 @@ void OrganizedNeighbors::visit_window(const Stage& stage, long u, long v, Visit&
     }
 }
 
+template <class Search>
+void OrganizedNeighbors::settle(const std::vector<Stage>& stages, std::size_t query_count,
+                                std::vector<std::uint32_t>& open, Search&& search) const
+{
+    std::vector<std::uint8_t> settled(query_count, 0);
+    std::size_t budget = wide_budget();
+    for (const Stage& stage : stages) {
+        if (open.empty()) return;
+        if (stage.slack <= 0.0 && !stage.whole) continue;
+        if (!affordable(stage, open.size(), budget)) return;
+        search(stage, std::span<const std::uint32_t>(open), std::span<std::uint8_t>(settled));
+        std::erase_if(open, [&](std::uint32_t q) { return settled[q] != 0; });
+    }
+}
+
 void OrganizedNeighbors::knn_search_batch(std::span<const Point> queries, int k, std::span<std::uint32_t> indices,
                                           std::span<float> squared_distances) const
 {
@@ -222,18 +237,12 @@ void OrganizedNeighbors::knn_search_batch(std::span<const Point> queries, int k,
     if (want == 0 || queries.empty()) return;
     detail::check_finite_queries(queries);
 
-    // Queries still to settle, stage after stage.
     std::vector<std::uint32_t> open(queries.size());
     for (std::size_t q = 0; q < queries.size(); ++q) open[q] = std::uint32_t(q);
-    std::vector<std::uint8_t> settled(queries.size(), 0);
-    std::size_t budget = wide_budget();
-    for (const Stage& stage : stages_) {
-        if (stage.slack <= 0.0 && !stage.whole) continue;
-        if (!affordable(stage, open.size(), budget)) break;
-        search_window(stage, queries, open, want, indices, squared_distances, settled);
-        std::erase_if(open, [&](std::uint32_t q) { return settled[q] != 0; });
-        if (open.empty()) return;
-    }
+    settle(stages_, queries.size(), open, [&](const Stage& stage, auto open_now, auto settled) {
+        search_window(stage, queries, open_now, want, indices, squared_distances, settled);
+    });
+    if (open.empty()) return;
     std::vector<Point> rest(open.size());
     for (std::size_t r = 0; r < open.size(); ++r) rest[r] = queries[open[r]];
     std::vector<std::uint32_t> rest_indices(rest.size() * want);
@@ -252,69 +261,79 @@ void OrganizedNeighbors::search_window(const Stage& stage, std::span<const Point
                                        std::span<std::uint8_t> settled) const
 {
     const long reach = stage.reach;
-    auto window_in_image = [&](long u, long v) { return inside(stage, u, v); };
-    // The windows of a foveated cloud's queries spread over much of the image (a few MB of pixels
-    // and points, past the L2 cache), and each candidate is a pixel load, then a point load that
-    // depends on it: the search waited on memory. Four queries ahead, the window's pixel rows are
-    // prefetched; two ahead, the points those rows hold (a row's points are consecutive in the
-    // cloud, around its centre pixel's point).
-    auto prefetch_pixels = [&](std::size_t o) {
-        long u, v;
-        if (o >= open.size() || !pixel_of(queries[open[o]], u, v) || !window_in_image(u, v)) return;
-        for (long y = v - reach; y <= v + reach; ++y) {
-            const std::int32_t* row = pixels_.data() + std::size_t(y) * camera_.width + std::size_t(u);
-            __builtin_prefetch(row - reach);
-            __builtin_prefetch(row + reach);
-        }
-    };
-    auto prefetch_points = [&](std::size_t o) {
-        long u, v;
-        if (o >= open.size() || !pixel_of(queries[open[o]], u, v) || !window_in_image(u, v)) return;
-        for (long y = v - reach; y <= v + reach; ++y) {
-            const std::int32_t i = pixels_[std::size_t(y) * camera_.width + std::size_t(u)];
-            if (i < 0) continue;
-            __builtin_prefetch(points_.data() + std::max<long>(0, i - reach));
-            __builtin_prefetch(points_.data() + std::min<long>(long(points_.size()) - 1, i + reach));
-        }
-    };
-
+    const bool listed = !stage.offsets.empty();
     tbb::parallel_for(tbb::blocked_range<std::size_t>(0, open.size(), 1024), [&](const auto& range) {
+        // Each query's pixel, found once: the prefetches ahead need it too.
+        struct Pixel {
+            long u = 0, v = 0;
+            bool found = false;
+            bool in_image = false;  // with its whole window
+        };
+        std::vector<Pixel> pixels(range.size());
+        for (std::size_t o = range.begin(); o < range.end(); ++o) {
+            Pixel& pixel = pixels[o - range.begin()];
+            pixel.found = pixel_of(queries[open[o]], pixel.u, pixel.v);
+            pixel.in_image = pixel.found && inside(stage, pixel.u, pixel.v);
+        }
+        // The windows of a foveated cloud's queries spread over much of the image (a few MB of
+        // pixels and points, past the L2 cache), and each candidate is a pixel load, then a point
+        // load that depends on it: the search waited on memory. Four queries ahead, the window's
+        // pixel rows are prefetched; two ahead, the points those rows hold (a row's points are
+        // consecutive in the cloud, around its centre pixel's point).
+        auto prefetch_pixels = [&](std::size_t at) {
+            if (at >= pixels.size() || !pixels[at].in_image) return;
+            const Pixel& centre = pixels[at];
+            for (long y = centre.v - reach; y <= centre.v + reach; ++y) {
+                const std::int32_t* row = pixels_.data() + std::size_t(y) * camera_.width + std::size_t(centre.u);
+                __builtin_prefetch(row - reach);
+                __builtin_prefetch(row + reach);
+            }
+        };
+        auto prefetch_points = [&](std::size_t at) {
+            if (at >= pixels.size() || !pixels[at].in_image) return;
+            const Pixel& centre = pixels[at];
+            for (long y = centre.v - reach; y <= centre.v + reach; ++y) {
+                const std::int32_t i = pixels_[std::size_t(y) * camera_.width + std::size_t(centre.u)];
+                if (i < 0) continue;
+                __builtin_prefetch(points_.data() + std::max<long>(0, i - reach));
+                __builtin_prefetch(points_.data() + std::min<long>(long(points_.size()) - 1, i + reach));
+            }
+        };
+
         std::vector<detail::Candidate> best;
         best.reserve(want + 1);
         std::vector<std::int32_t> window_points(stage.steps.size());
         std::vector<float> window_distances(stage.steps.size());
         for (std::size_t o = range.begin(); o < range.end(); ++o) {
-            if (!stage.offsets.empty()) {
-                prefetch_pixels(o + 4);
-                prefetch_points(o + 2);
+            const std::size_t at = o - range.begin();
+            if (listed) {
+                prefetch_pixels(at + 4);
+                prefetch_points(at + 2);
             }
+            const Pixel& pixel = pixels[at];
+            if (!pixel.found) continue;
             const std::size_t q = open[o];
             const Point& center = queries[q];
-            long u, v;
-            if (!pixel_of(center, u, v)) continue;
             best.clear();
-            if (!stage.offsets.empty() && window_in_image(u, v)) {
+            if (listed && pixel.in_image) {
                 // The whole window lies in the image (most queries): no pixel needs a bounds check.
                 // All the window's distances first, then the selection: with no branch between
                 // them, the window's loads overlap, where keep_nearest's mispredicted compares
                 // issued them one after another.
-                const std::int32_t* centre_pixel = pixels_.data() + std::size_t(v) * camera_.width + std::size_t(u);
+                const std::int32_t* centre_pixel =
+                    pixels_.data() + std::size_t(pixel.v) * camera_.width + std::size_t(pixel.u);
                 for (std::size_t j = 0; j < stage.steps.size(); ++j) {
                     const std::int32_t i = centre_pixel[stage.steps[j]];
-                    const Point& p = points_[std::size_t(std::max(i, 0))];
-                    const float dx = p.x() - center.x(), dy = p.y() - center.y(), dz = p.z() - center.z();
                     window_points[j] = i;
-                    window_distances[j] = dx * dx + dy * dy + dz * dz;
+                    window_distances[j] = detail::squared_distance(points_[std::size_t(std::max(i, 0))], center);
                 }
                 for (std::size_t j = 0; j < stage.steps.size(); ++j)
                     if (window_points[j] >= 0)
                         detail::keep_nearest(best, want, {window_distances[j], std::uint32_t(window_points[j])});
             } else {
-                visit_window(stage, u, v, [&](std::int32_t i) {
-                    const Point& p = points_[std::size_t(i)];
-                    // NeighborGrid's arithmetic, so the distances are its distances.
-                    const float dx = p.x() - center.x(), dy = p.y() - center.y(), dz = p.z() - center.z();
-                    detail::keep_nearest(best, want, {dx * dx + dy * dy + dz * dz, std::uint32_t(i)});
+                visit_window(stage, pixel.u, pixel.v, [&](std::int32_t i) {
+                    detail::keep_nearest(best, want,
+                                         {detail::squared_distance(points_[std::size_t(i)], center), std::uint32_t(i)});
                 });
             }
             if (best.size() < want) continue;
@@ -340,57 +359,57 @@ void OrganizedNeighbors::nearest_batch(std::span<const Point> queries, float rad
         throw Error("organized neighbours", "nearest_batch needs one output per query");
     std::fill(indices.begin(), indices.end(), no_point);
     if (!(radius >= 0.0f) || points_.empty() || queries.empty()) return;  // NeighborGrid::nearest finds nothing
-    const float radius2 = radius * radius;
 
     // A query that is not finite is near nothing (NeighborGrid::nearest says so too).
     std::vector<std::uint32_t> open;
     for (std::size_t q = 0; q < queries.size(); ++q)
         if (queries[q].allFinite()) open.push_back(std::uint32_t(q));
+    settle(nearest_stages_, queries.size(), open, [&](const Stage& stage, auto open_now, auto settled) {
+        nearest_window(stage, queries, open_now, radius, indices, squared_distances, settled);
+    });
     if (open.empty()) return;
-    std::vector<std::uint8_t> settled(queries.size(), 0);
-    std::size_t budget = wide_budget();
-    for (const Stage& stage : nearest_stages_) {
-        if (stage.slack <= 0.0 && !stage.whole) continue;
-        if (!affordable(stage, open.size(), budget)) break;
-        tbb::parallel_for(tbb::blocked_range<std::size_t>(0, open.size(), 128), [&](const auto& range) {
-            for (std::size_t o = range.begin(); o < range.end(); ++o) {
-                const std::size_t q = open[o];
-                const Point& center = queries[q];
-                long u, v;
-                if (!pixel_of(center, u, v)) continue;
-                // The least (squared distance, index), as one integer: squared distances are >= +0,
-                // where the order of floats is that of their bits.
-                std::uint64_t least = std::numeric_limits<std::uint64_t>::max();
-                visit_window(stage, u, v, [&](std::int32_t i) {
-                    const Point& p = points_[std::size_t(i)];
-                    const float dx = p.x() - center.x(), dy = p.y() - center.y(), dz = p.z() - center.z();
-                    least = std::min(least, (std::uint64_t(std::bit_cast<std::uint32_t>(dx * dx + dy * dy + dz * dz))
-                                             << 32) | std::uint32_t(i));
-                });
-                const float best = std::bit_cast<float>(std::uint32_t(least >> 32));
-                const bool found = least != std::numeric_limits<std::uint64_t>::max() && best < radius2;
-                // Settled when every point outside the window is farther than the window's nearest
-                // (strictly: a tie goes to the lower index, which may lie outside), or, for a miss,
-                // at least the radius away; with bound_margin.
-                if (!stage.whole) {
-                    const double limit = outside_bound_squared(stage, center) * (1.0 - bound_margin);
-                    if (!(found ? double(best) < limit : double(radius2) <= limit)) continue;
-                }
-                if (found) {
-                    indices[q] = std::uint32_t(least);
-                    squared_distances[q] = best;
-                }
-                settled[q] = 1;
-            }
-        });
-        std::erase_if(open, [&](std::uint32_t q) { return settled[q] != 0; });
-        if (open.empty()) return;
-    }
     const NeighborGrid& grid = fallback();
     tbb::parallel_for(tbb::blocked_range<std::size_t>(0, open.size(), 128), [&](const auto& range) {
         for (std::size_t o = range.begin(); o < range.end(); ++o) {
             const std::size_t q = open[o];
             if (!grid.nearest(queries[q], radius, indices[q], squared_distances[q])) indices[q] = no_point;
+        }
+    });
+}
+
+void OrganizedNeighbors::nearest_window(const Stage& stage, std::span<const Point> queries,
+                                        std::span<const std::uint32_t> open, float radius,
+                                        std::span<std::uint32_t> indices, std::span<float> squared_distances,
+                                        std::span<std::uint8_t> settled) const
+{
+    const float radius2 = radius * radius;
+    tbb::parallel_for(tbb::blocked_range<std::size_t>(0, open.size(), 128), [&](const auto& range) {
+        for (std::size_t o = range.begin(); o < range.end(); ++o) {
+            const std::size_t q = open[o];
+            const Point& center = queries[q];
+            long u, v;
+            if (!pixel_of(center, u, v)) continue;
+            // The least (squared distance, index), as one integer: squared distances are >= +0,
+            // where the order of floats is that of their bits.
+            std::uint64_t least = std::numeric_limits<std::uint64_t>::max();
+            visit_window(stage, u, v, [&](std::int32_t i) {
+                const float d2 = detail::squared_distance(points_[std::size_t(i)], center);
+                least = std::min(least, (std::uint64_t(std::bit_cast<std::uint32_t>(d2)) << 32) | std::uint32_t(i));
+            });
+            const float best = std::bit_cast<float>(std::uint32_t(least >> 32));
+            const bool found = least != std::numeric_limits<std::uint64_t>::max() && best < radius2;
+            // Settled when every point outside the window is farther than the window's nearest
+            // (strictly: a tie goes to the lower index, which may lie outside), or, for a miss, at
+            // least the radius away; with bound_margin.
+            if (!stage.whole) {
+                const double limit = outside_bound_squared(stage, center) * (1.0 - bound_margin);
+                if (!(found ? double(best) < limit : double(radius2) <= limit)) continue;
+            }
+            if (found) {
+                indices[q] = std::uint32_t(least);
+                squared_distances[q] = best;
+            }
+            settled[q] = 1;
         }
     });
 }

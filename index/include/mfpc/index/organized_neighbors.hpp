@@ -81,10 +81,19 @@ private:
     // Calls visit(point index) for every point in the stage's window around pixel (u, v).
     template <class Visit>
     void visit_window(const Stage& stage, long u, long v, Visit&& visit) const;
-    // Searches the stage's window around each open query; marks those it settles.
+    // Runs `stages` over the `open` queries while they are affordable: search(stage, open, settled)
+    // marks those a stage settles. Leaves in `open` the queries still unsettled.
+    template <class Search>
+    void settle(const std::vector<Stage>& stages, std::size_t query_count, std::vector<std::uint32_t>& open,
+                Search&& search) const;
+    // Searches the stage's window around each open query for its k nearest; marks those it settles.
     void search_window(const Stage& stage, std::span<const Point> queries, std::span<const std::uint32_t> open,
                        std::size_t want, std::span<std::uint32_t> indices, std::span<float> squared_distances,
                        std::span<std::uint8_t> settled) const;
+    // The same for the nearest point within `radius`.
+    void nearest_window(const Stage& stage, std::span<const Point> queries, std::span<const std::uint32_t> open,
+                        float radius, std::span<std::uint32_t> indices, std::span<float> squared_distances,
+                        std::span<std::uint8_t> settled) const;
     // Whether a stage is worth running for `open` queries rather than going to the grid, within
     // what is left of a search's budget of window pixels (taken from it when so).
     bool affordable(const Stage& stage, std::size_t open, std::size_t& budget) const;
