@@ -363,12 +363,14 @@ Neighborhoods NeighborGrid::radius_neighborhoods(std::span<const Point> centers,
             }
         }
     });
+    // Where the s-th centre's list of a part ends: where the next one's starts.
+    auto list_end = [](const Part& part, std::size_t s) {
+        return s + 1 < part.starts.size() ? part.starts[s + 1].second : part.indices.size();
+    };
     // Counts into offsets, then every centre's list copied to its place.
     for (const Part& part : parts)
-        for (std::size_t s = 0; s < part.starts.size(); ++s) {
-            const std::size_t end = s + 1 < part.starts.size() ? part.starts[s + 1].second : part.indices.size();
-            out.offsets[part.starts[s].first + 1] = end - part.starts[s].second;
-        }
+        for (std::size_t s = 0; s < part.starts.size(); ++s)
+            out.offsets[part.starts[s].first + 1] = list_end(part, s) - part.starts[s].second;
     for (std::size_t i = 0; i < centers.size(); ++i) out.offsets[i + 1] += out.offsets[i];
     out.indices.resize(out.offsets.back());
     out.squared_distances.resize(out.offsets.back());
@@ -376,7 +378,7 @@ Neighborhoods NeighborGrid::radius_neighborhoods(std::span<const Point> centers,
         const Part& part = parts[p];
         for (std::size_t s = 0; s < part.starts.size(); ++s) {
             const auto [center, begin] = part.starts[s];
-            const std::size_t end = s + 1 < part.starts.size() ? part.starts[s + 1].second : part.indices.size();
+            const std::size_t end = list_end(part, s);
             const auto at = std::ptrdiff_t(out.offsets[center]);
             std::copy(part.indices.begin() + std::ptrdiff_t(begin), part.indices.begin() + std::ptrdiff_t(end),
                       out.indices.begin() + at);
