@@ -16,12 +16,13 @@ namespace mfpc {
 
 namespace {
 
-// The normals of `queries` from their k nearest among `surface` points, which `find` searches:
-// find(queries, k, indices, squared distances) as NeighborGrid::knn_search_batch.
-template <class Find>
-void normals_from(std::span<const Point> queries, std::span<const Point> surface, const NormalParams& params,
-                  std::span<Point> normals, Find&& find)
+// The normals of `queries` from their k nearest among the points of `source` (a NeighborGrid or an
+// OrganizedNeighbors: the same answers, found differently).
+template <class Source>
+void normals_from(std::span<const Point> queries, const Source& source, const NormalParams& params,
+                  std::span<Point> normals)
 {
+    const std::span<const Point> surface = source.points();
     if (normals.size() != queries.size())
         throw Error("estimate_normals", "normals has " + std::to_string(normals.size()) + " entries for " +
                                             std::to_string(queries.size()) + " query points");
@@ -41,8 +42,9 @@ void normals_from(std::span<const Point> queries, std::span<const Point> surface
     std::vector<float> squared_distances(neighbours.size());
     for (std::size_t offset = 0; offset < queries.size(); offset += batch) {
         const std::size_t count = std::min(batch, queries.size() - offset);
-        find(queries.subspan(offset, count), int(k), std::span<std::uint32_t>(neighbours).first(count * k),
-             std::span<float>(squared_distances).first(count * k));
+        source.knn_search_batch(queries.subspan(offset, count), int(k),
+                                std::span<std::uint32_t>(neighbours).first(count * k),
+                                std::span<float>(squared_distances).first(count * k));
         tbb::parallel_for(tbb::blocked_range<std::size_t>(0, count, 1024), [&](const auto& range) {
             for (std::size_t i = range.begin(); i < range.end(); ++i) {
                 const std::uint32_t* own = neighbours.data() + i * k;
@@ -81,17 +83,13 @@ void normals_from(std::span<const Point> queries, std::span<const Point> surface
 void estimate_normals(std::span<const Point> queries, const NeighborGrid& surface, const NormalParams& params,
                       std::span<Point> normals)
 {
-    normals_from(queries, surface.points(), params, normals, [&](auto... arguments) {
-        surface.knn_search_batch(arguments...);
-    });
+    normals_from(queries, surface, params, normals);
 }
 
 void estimate_normals(std::span<const Point> queries, const OrganizedNeighbors& surface, const NormalParams& params,
                       std::span<Point> normals)
 {
-    normals_from(queries, surface.points(), params, normals, [&](auto... arguments) {
-        surface.knn_search_batch(arguments...);
-    });
+    normals_from(queries, surface, params, normals);
 }
 
 void orient_normals(std::span<Point> normals, std::span<const Point> reference)

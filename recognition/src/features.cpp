@@ -28,11 +28,10 @@ std::span<const float> Features::descriptor(std::size_t i) const
 
 namespace {
 
-// describe_keypoints with the normals' neighbour search left to `estimate(points, normals)`.
-template <class Estimate>
-Features describe(std::span<const Point> surface, std::span<const std::uint32_t> keypoints,
-                  const FeatureParams& params, FeatureTimings* timings, std::span<const Point> orientation,
-                  Estimate&& estimate)
+// describe_keypoints over either neighbour index of the normals' source.
+template <class Source>
+Features describe(std::span<const Point> surface, std::span<const std::uint32_t> keypoints, const Source& normal_source,
+                  const FeatureParams& params, FeatureTimings* timings, std::span<const Point> orientation)
 {
     if (!orientation.empty() && orientation.size() != surface.size())
         throw Error("describe_keypoints", "the orientation normals must be one per surface point");
@@ -64,7 +63,7 @@ Features describe(std::span<const Point> surface, std::span<const std::uint32_t>
     std::vector<Point> query_points(queries.size());
     for (std::size_t i = 0; i < queries.size(); ++i) query_points[i] = surface[queries[i]];
     std::vector<Point> query_normals(queries.size());
-    estimate(query_points, query_normals);
+    estimate_normals(query_points, normal_source, NormalParams{params.normal_k, Point::Zero()}, query_normals);
     if (!orientation.empty()) {
         std::vector<Point> reference(queries.size());
         for (std::size_t i = 0; i < queries.size(); ++i) reference[i] = orientation[queries[i]];
@@ -124,20 +123,14 @@ Features describe_keypoints(std::span<const Point> surface, std::span<const std:
                             const NeighborGrid& normal_source, const FeatureParams& params, FeatureTimings* timings,
                             std::span<const Point> orientation)
 {
-    return describe(surface, keypoints, params, timings, orientation,
-                    [&](std::span<const Point> points, std::span<Point> normals) {
-                        estimate_normals(points, normal_source, NormalParams{params.normal_k, Point::Zero()}, normals);
-                    });
+    return describe(surface, keypoints, normal_source, params, timings, orientation);
 }
 
 Features describe_keypoints(std::span<const Point> surface, std::span<const std::uint32_t> keypoints,
                             const OrganizedNeighbors& normal_source, const FeatureParams& params,
                             FeatureTimings* timings, std::span<const Point> orientation)
 {
-    return describe(surface, keypoints, params, timings, orientation,
-                    [&](std::span<const Point> points, std::span<Point> normals) {
-                        estimate_normals(points, normal_source, NormalParams{params.normal_k, Point::Zero()}, normals);
-                    });
+    return describe(surface, keypoints, normal_source, params, timings, orientation);
 }
 
 }  // namespace mfpc
