@@ -107,8 +107,7 @@ void run_real_scene(benchmark::State& state, bool colours)
     const PointCloud& cloud = colours ? scene->cloud : scene->xyz;
     const PointIndex& index = colours ? *scene->index : *scene->xyz_index;
     for (auto _ : state) {
-        const FoveationRegions regions = foveation_regions(index, scene->config.structures, FoveationMode::mfpc);
-        FoveatedCloud result = downsample_regions(cloud, regions, scene->config.structures, scene->config.downsample);
+        FoveatedCloud result = foveate(cloud, index, scene->config, FoveationMode::mfpc);
         benchmark::DoNotOptimize(result.cloud.points.data());
     }
 }
@@ -224,11 +223,11 @@ void BM_Structures_Ours(benchmark::State& state)
     MFPC_REQUIRE_SCENE(state, scene);
     tbb::global_control threads(tbb::global_control::max_allowed_parallelism, 1);
     const int count = int(state.range(0));
-    const auto structures =
+    FoveationConfig config = scene->config;
+    config.structures =
         state.range(1) ? stacked_structures(scene->config, count) : grid_structures(scene->config, count);
     for (auto _ : state) {
-        const FoveationRegions regions = foveation_regions(*scene->index, structures, FoveationMode::mfpc);
-        FoveatedCloud result = downsample_regions(scene->cloud, regions, structures, scene->config.downsample);
+        FoveatedCloud result = foveate(scene->cloud, *scene->index, config, FoveationMode::mfpc);
         benchmark::DoNotOptimize(result.cloud.points.data());
     }
 }
@@ -295,11 +294,12 @@ void BM_Large_Ours(benchmark::State& state)
 {
     MFPC_REQUIRE_LARGE(state, large);
     tbb::global_control threads(tbb::global_control::max_allowed_parallelism, std::size_t(state.range(0)));
+    FoveationConfig config;
+    config.downsample = Downsample::voxel;
     std::size_t move = 0;
     for (auto _ : state) {
-        const auto& structures = large->foveae[move++ % large->foveae.size()];
-        const FoveationRegions regions = foveation_regions(*large->index, structures, FoveationMode::mfpc);
-        FoveatedCloud result = downsample_regions(large->cloud, regions, structures, Downsample::voxel);
+        config.structures = large->foveae[move++ % large->foveae.size()];
+        FoveatedCloud result = foveate(large->cloud, *large->index, config, FoveationMode::mfpc);
         benchmark::DoNotOptimize(result.cloud.points.data());
     }
 }

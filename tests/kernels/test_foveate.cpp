@@ -272,6 +272,87 @@ TEST(Foveate, OneShotEqualsFoveationOverAWholeIndex)
     expect_same_foveation(foveate(cloud, config, FoveationMode::none), foveate(cloud, PointIndex(cloud), config, FoveationMode::none), "none");
 }
 
+// foveate() reads the members through the runs and never lists them; its result is that of
+// downsampling the listed regions, in every mode, for both downsamplings, with a structure that
+// keeps every point (d_k = 0), on a cloud with colours and normals.
+TEST(Foveate, FoveateEqualsDownsamplingTheListedRegions)
+{
+    PointCloud cloud;
+    cloud.points = test::random_points(30000, 61);
+    cloud.width = std::uint32_t(cloud.size());
+    std::mt19937 rng(62);
+    std::normal_distribution<float> gauss;
+    for (std::size_t i = 0; i < cloud.size(); ++i) {
+        cloud.colors.push_back({std::uint8_t(i * 5), std::uint8_t(i * 11), std::uint8_t(i * 17)});
+        cloud.normals.push_back(Point(gauss(rng), gauss(rng), gauss(rng)).normalized());
+    }
+    FoveationConfig config;
+    config.structures = random_structures(63, 3, 3);
+    config.structures[2].density_outer = config.structures[2].density_fovea = 0.0f;
+    const PointIndex index(cloud, {0.02f});
+    for (const Downsample downsample : {Downsample::voxel, Downsample::uniform}) {
+        config.downsample = downsample;
+        for (const FoveationMode mode : {FoveationMode::mfpc, FoveationMode::raw, FoveationMode::single}) {
+            const int single = mode == FoveationMode::single ? 2 : 0;
+            const FoveationRegions regions = foveation_regions(index, config.structures, mode, single);
+            const FoveatedCloud fused = foveate(cloud, index, config, mode, single);
+            const std::string what = std::string(to_string(mode)) + " " + to_string(downsample);
+            expect_same_foveation(fused, downsample_regions(cloud, regions, config.structures, downsample), what);
+            EXPECT_EQ(fused.points_before_downsampling, regions.members.size()) << what;
+            EXPECT_GT(fused.cloud.size(), 0u) << what;
+            EXPECT_GE(fused.label_ms, 0.0);
+            EXPECT_GE(fused.downsample_ms, 0.0);
+        }
+    }
+}
+
+// Hand-made regions that downsampling would read out of bounds are errors: offsets that do not
+// partition the members or the runs, and runs that do not fit their index.
+TEST(Foveate, MalformedRegionsAreErrors)
+{
+    PointCloud cloud;
+    cloud.points = test::random_points(20000, 71);
+    cloud.width = std::uint32_t(cloud.size());
+    const auto structures = random_structures(72, 2, 3);
+    const PointIndex index(cloud.points, {0.05f});
+    const FoveationRegions regions = foveation_regions(index, structures, FoveationMode::mfpc);
+    ASSERT_FALSE(regions.runs.empty());
+    EXPECT_NO_THROW(downsample_regions(cloud, regions, structures, Downsample::voxel));
+
+    auto expect_error = [&](const FoveationRegions& wrong, const std::string& what) {
+        EXPECT_THROW(downsample_regions(cloud, wrong, structures, Downsample::voxel), Error) << what;
+    };
+    FoveationRegions wrong = regions;
+    wrong.offsets.pop_back();
+    expect_error(wrong, "offsets one short");
+    wrong = regions;
+    wrong.offsets.back() += 1;
+    expect_error(wrong, "offsets past the members");
+    wrong = regions;
+    std::swap(wrong.offsets[1], wrong.offsets[wrong.offsets.size() - 2]);
+    if (wrong.offsets[1] != regions.offsets[1]) expect_error(wrong, "offsets not ascending");
+    wrong = regions;
+    wrong.levels = 2;
+    expect_error(wrong, "levels other than the structures'");
+    wrong = regions;
+    wrong.run_offsets.back() += 1;
+    expect_error(wrong, "run offsets past the runs");
+    wrong = regions;
+    wrong.run_offsets.resize(3);
+    expect_error(wrong, "run offsets one per region");
+
+    const std::uint32_t voxels = std::uint32_t(index.voxels().size());
+    const std::uint32_t points = std::uint32_t(cloud.size());
+    for (const RegionRun& bad : {RegionRun{0, points + 5, 3, 3}, RegionRun{7, 3, 3, 3},
+                                 RegionRun{0, 1, voxels - 1, voxels + 1},
+                                 RegionRun{0, index.voxels()[0].end + 1, 0, 1}}) {
+        wrong = regions;
+        wrong.runs[0] = bad;
+        expect_error(wrong, "run " + std::to_string(bad.begin) + ".." + std::to_string(bad.end) + " voxels " +
+                                std::to_string(bad.voxel_begin) + ".." + std::to_string(bad.voxel_end));
+    }
+}
+
 // Downsampling takes the points of a run tested one by one with one voxel lookup when the index
 // voxel the run names falls in one downsampling voxel. Runs that name a voxel not holding them
 // (regions edited by hand) are taken point by point instead: the same sums in the same order.

@@ -98,18 +98,11 @@ void run_foveate(const FoveateOptions& options, const GlobalOptions& global)
 
     const PointIndex index(cloud, PointIndexParams{options.index_voxel});
     timings["index"] = clock.lap_ms();
-    FoveatedCloud result;
-    if (mode == FoveationMode::none) {
-        result = foveate(cloud, index, config, mode);
-        timings["label"] = 0.0;
-        timings["downsample"] = clock.lap_ms();
-    } else {
-        // foveate() in two timed steps.
-        const FoveationRegions regions = foveation_regions(index, config.structures, mode, single_structure);
-        timings["label"] = clock.lap_ms();
-        result = downsample_regions(cloud, regions, config.structures, config.downsample);
-        timings["downsample"] = clock.lap_ms();
-    }
+    const FoveatedCloud result = foveate(cloud, index, config, mode, single_structure);
+    const double foveate_ms = clock.lap_ms();
+    // foveate() times its two phases; mode none has neither (its copy counts as downsampling).
+    timings["label"] = result.label_ms;
+    timings["downsample"] = mode == FoveationMode::none ? foveate_ms : result.downsample_ms;
 
     if (!options.output.empty()) {
         if (result.cloud.empty()) {

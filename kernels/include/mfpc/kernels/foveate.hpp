@@ -80,6 +80,11 @@ struct FoveatedCloud {
     std::vector<RegionSummary> regions;
     std::size_t points_before_downsampling = 0;
     std::size_t redundant_points = 0;  // |raw| - |mfpc| before downsampling (see FoveationRegions)
+    // Wall-clock milliseconds of labelling and of downsampling in the foveate() call that made it
+    // (without the one-shot foveate's selection and indexing; 0 from downsample_regions and for
+    // mode none).
+    double label_ms = 0.0;
+    double downsample_ms = 0.0;
 };
 
 // Downsamples each region on its own with its structure's d_k; regions never mix. A voxel grid
@@ -92,11 +97,14 @@ struct FoveatedCloud {
 //  - uniform: the voxel's original point nearest the voxel centre (ties: the lowest index).
 // Output: regions in order; within a region, voxels in the order of their first member;
 // d_k = 0 keeps every member.
+// Regions that do not fit the structures, the cloud or their index (offsets that do not partition
+// the members or runs, a member beyond the cloud, a run beyond the index) are an Error.
 FoveatedCloud downsample_regions(const PointCloud& cloud, const FoveationRegions& regions,
                                  std::span<const FoveatedStructure> structures, Downsample downsample);
 
 // Labelling then downsampling; mode none returns the cloud unchanged with no labels (-1, -1).
-// The index must have been built over cloud.points.
+// The index must have been built over cloud.points. The same result as downsample_regions over
+// foveation_regions, without listing the members: downsampling reads them through the runs.
 FoveatedCloud foveate(const PointCloud& cloud, const PointIndex& index, const FoveationConfig& config,
                       FoveationMode mode, int single_structure = 0);
 
