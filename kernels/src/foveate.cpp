@@ -197,6 +197,8 @@ struct Coverage {
 // Chunks of leaves are the unit of parallel work; their size is fixed (not derived from the thread
 // count), so the emitted order is the same at any thread count.
 constexpr std::size_t leaves_per_chunk = 16;
+// Voxels decided together inside a leaf that a face crosses (4 measured faster than 8 or 16).
+constexpr std::uint32_t voxels_per_group = 4;
 
 // What one chunk of leaves emitted: runs of the index's point order with their regions.
 struct Emitted {
@@ -207,9 +209,10 @@ struct Emitted {
 
 // Emits the densest covering region among `active` structures for every covered point of the index,
 // as runs of its point order. Decides as coarsely as it can: a leaf (then, inside a leaf that
-// straddles a face, a voxel) is skipped when outside every structure and emitted whole when it lies
-// in one region of every structure that reaches it; only points of voxels that straddle a face are
-// tested one by one, and only against the structures that reach their voxel.
+// straddles a face, a group of voxels, then a voxel) is skipped when outside every structure and
+// emitted whole when it lies in one region of every structure that reaches it; only points of
+// voxels that straddle a face are tested one by one, and only against the structures that reach
+// their voxel. Groups change how much is decided at once, never the runs emitted.
 std::vector<Emitted> label_runs(const PointIndex& index, const RegionTable& table, std::span<const int> active)
 {
     const auto leaves = index.leaves();
@@ -288,6 +291,7 @@ std::vector<Emitted> label_runs(const PointIndex& index, const RegionTable& tabl
     tbb::parallel_for(std::size_t(0), chunks.size(), [&](std::size_t c) {
         Emitted& out = chunks[c];
         std::vector<Reach> leaf_reach;
+        std::vector<Reach> group_reach;
         std::vector<Reach> voxel_reach;
         const std::size_t leaf_end = std::min(leaves.size(), (c + 1) * leaves_per_chunk);
         for (std::size_t leaf = c * leaves_per_chunk; leaf < leaf_end; ++leaf) {
@@ -298,13 +302,31 @@ std::vector<Emitted> label_runs(const PointIndex& index, const RegionTable& tabl
                 emit_whole(leaf_reach, l.voxel_begin, l.voxel_end, out);
                 continue;
             }
-            for (std::uint32_t v = l.voxel_begin; v < l.voxel_end; ++v) {
-                const bool voxel_mixed = narrow(leaf_reach, voxels[v].bounds, voxel_reach);
-                if (voxel_reach.empty()) continue;
-                if (voxel_mixed) {
-                    emit_each(voxel_reach, v, out);
-                } else {
-                    emit_whole(voxel_reach, v, v + 1, out);
+            // A face crosses the leaf: decide groups of consecutive voxels (neighbours in the
+            // leaf's voxel order) by their joint bounds first, and only the voxels of groups that
+            // a face crosses one by one. On the real scene three in five of these voxels lie in
+            // groups decided whole.
+            for (std::uint32_t group = l.voxel_begin; group < l.voxel_end; group += voxels_per_group) {
+                const std::uint32_t group_end = std::min(l.voxel_end, group + voxels_per_group);
+                Box bounds = voxels[group].bounds;
+                for (std::uint32_t v = group + 1; v < group_end; ++v) {
+                    bounds.min = bounds.min.cwiseMin(voxels[v].bounds.min);
+                    bounds.max = bounds.max.cwiseMax(voxels[v].bounds.max);
+                }
+                const bool group_mixed = narrow(leaf_reach, bounds, group_reach);
+                if (group_reach.empty()) continue;
+                if (!group_mixed) {
+                    emit_whole(group_reach, group, group_end, out);
+                    continue;
+                }
+                for (std::uint32_t v = group; v < group_end; ++v) {
+                    const bool voxel_mixed = narrow(group_reach, voxels[v].bounds, voxel_reach);
+                    if (voxel_reach.empty()) continue;
+                    if (voxel_mixed) {
+                        emit_each(voxel_reach, v, out);
+                    } else {
+                        emit_whole(voxel_reach, v, v + 1, out);
+                    }
                 }
             }
         }
