@@ -109,6 +109,15 @@ public:
         return smallest_axis(lower_in < upper_in ? lower_in : upper_in) - 1;
     }
 
+    // Whether box `level` of `structure` (closed) holds p.
+    bool contains(int structure, int level, const Point& p) const
+    {
+        const AxisLanes x = axis_lanes(p);
+        const std::size_t box = std::size_t(structure) * std::size_t(boxes_) + std::size_t(level);
+        const AxisCounts in = (x >= lower_[box]) & (x <= upper_[box]);
+        return (in[0] & in[1] & in[2]) != 0;
+    }
+
     // Whether some structure's outer box (closed) holds p. Lane 0 gathers the three axes'
     // verdicts: read lane by lane, the compares compiled to branches and took twice the time.
     bool covers(const Point& p) const
@@ -269,6 +278,38 @@ std::vector<Emitted> label_runs(const PointIndex& index, const RegionTable& tabl
     };
     auto emit_each = [&](const std::vector<Reach>& reach, std::uint32_t v, Emitted& out) {
         const PointIndexVoxel& voxel = voxels[v];
+        // The common case: one structure with two possible levels here (one face crosses the
+        // voxel), every other one with a single level. A point's region is then one of two,
+        // chosen by one box test instead of the general loop below (0.16 of labelling's 0.40 ms
+        // on the real scene). `mixed`: that structure's place in reach, -1 none yet, -2 not so.
+        int mixed = -1;
+        std::uint16_t fixed_best = no_region;
+        std::size_t fixed_count = 0;
+        for (std::size_t i = 0; i < reach.size(); ++i) {
+            const Reach& r = reach[i];
+            if (r.levels.whole()) {
+                fixed_best = std::min(fixed_best, table.rank[table.region(r.structure, r.levels.lowest)]);
+                ++fixed_count;
+            } else {
+                mixed = mixed == -1 && r.levels.highest == r.levels.lowest + 1 ? int(i) : -2;
+            }
+        }
+        if (mixed >= 0) {
+            const Reach& r = reach[std::size_t(mixed)];
+            const std::uint16_t best_in = std::min(fixed_best, table.rank[table.region(r.structure, r.levels.highest)]);
+            const bool covers_out = r.levels.lowest >= 0;
+            const std::uint16_t best_out =
+                covers_out ? std::min(fixed_best, table.rank[table.region(r.structure, r.levels.lowest)]) : fixed_best;
+            for (std::uint32_t k = voxel.begin; k < voxel.end; ++k) {
+                const bool in = faces.contains(r.structure, r.levels.highest, ordered_points[k]);
+                const std::uint16_t best = in ? best_in : best_out;
+                if (best == no_region) continue;
+                out.coverage.covered_points += 1;
+                out.coverage.coverage_pairs += fixed_count + std::size_t(in || covers_out);
+                emit(out, table.by_rank[best], RegionRun{k, k + 1, v, v});
+            }
+            return;
+        }
         for (std::uint32_t k = voxel.begin; k < voxel.end; ++k) {
             std::uint16_t best = no_region;
             std::size_t covering = 0;
