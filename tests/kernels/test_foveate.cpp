@@ -234,19 +234,26 @@ void expect_same_foveation(const FoveatedCloud& a, const FoveatedCloud& b, const
     }
 }
 
-// Indexing only the points some outer box covers changes nothing in the result, for every mode
-// and downsampling, on coloured clouds with normals whose structures cover parts of the cloud.
-TEST(Foveate, OneShotEqualsFoveationOverAWholeIndex)
+// Random points with colours and random unit normals.
+PointCloud random_cloud_with_attributes(std::size_t count, std::uint32_t seed)
 {
     PointCloud cloud;
-    cloud.points = test::random_points(40000, 21);
+    cloud.points = test::random_points(count, seed);
     cloud.width = std::uint32_t(cloud.size());
-    std::mt19937 rng(22);
+    std::mt19937 rng(seed + 1);
     std::normal_distribution<float> gauss;
     for (std::size_t i = 0; i < cloud.size(); ++i) {
         cloud.colors.push_back({std::uint8_t(i * 7), std::uint8_t(i * 13), std::uint8_t(i * 31)});
         cloud.normals.push_back(Point(gauss(rng), gauss(rng), gauss(rng)).normalized());
     }
+    return cloud;
+}
+
+// Indexing only the points some outer box covers changes nothing in the result, for every mode
+// and downsampling, on coloured clouds with normals whose structures cover parts of the cloud.
+TEST(Foveate, OneShotEqualsFoveationOverAWholeIndex)
+{
+    const PointCloud cloud = random_cloud_with_attributes(40000, 21);
     for (const std::uint32_t seed : {23u, 24u, 25u}) {
         FoveationConfig config;
         config.structures = random_structures(seed, int(seed % 4) + 1, 3);
@@ -277,15 +284,7 @@ TEST(Foveate, OneShotEqualsFoveationOverAWholeIndex)
 // keeps every point (d_k = 0), on a cloud with colours and normals.
 TEST(Foveate, FoveateEqualsDownsamplingTheListedRegions)
 {
-    PointCloud cloud;
-    cloud.points = test::random_points(30000, 61);
-    cloud.width = std::uint32_t(cloud.size());
-    std::mt19937 rng(62);
-    std::normal_distribution<float> gauss;
-    for (std::size_t i = 0; i < cloud.size(); ++i) {
-        cloud.colors.push_back({std::uint8_t(i * 5), std::uint8_t(i * 11), std::uint8_t(i * 17)});
-        cloud.normals.push_back(Point(gauss(rng), gauss(rng), gauss(rng)).normalized());
-    }
+    const PointCloud cloud = random_cloud_with_attributes(30000, 61);
     FoveationConfig config;
     config.structures = random_structures(63, 3, 3);
     config.structures[2].density_outer = config.structures[2].density_fovea = 0.0f;
