@@ -112,26 +112,27 @@ public:
     // Whether box `level` of `structure` (closed) holds p.
     bool contains(int structure, int level, const Point& p) const
     {
-        const AxisLanes x = axis_lanes(p);
-        const std::size_t box = std::size_t(structure) * std::size_t(boxes_) + std::size_t(level);
-        const AxisCounts in = (x >= lower_[box]) & (x <= upper_[box]);
-        return (in[0] & in[1] & in[2]) != 0;
+        return in_box(axis_lanes(p), std::size_t(structure) * std::size_t(boxes_) + std::size_t(level))[0] != 0;
     }
 
-    // Whether some structure's outer box (closed) holds p. Lane 0 gathers the three axes'
-    // verdicts: read lane by lane, the compares compiled to branches and took twice the time.
+    // Whether some structure's outer box (closed) holds p.
     bool covers(const Point& p) const
     {
         const AxisLanes x = axis_lanes(p);
         AxisCounts inside{};
-        for (std::size_t box = 0; box < lower_.size(); box += std::size_t(boxes_)) {
-            const AxisCounts in = (x >= lower_[box]) & (x <= upper_[box]);
-            inside |= in & __builtin_shufflevector(in, in, 1, 2, 0, 3) & __builtin_shufflevector(in, in, 2, 0, 1, 3);
-        }
+        for (std::size_t box = 0; box < lower_.size(); box += std::size_t(boxes_)) inside |= in_box(x, box);
         return inside[0] != 0;
     }
 
 private:
+    // Lane 0 is non-zero when box `box` (closed) holds x on all three axes. The axes' verdicts are
+    // gathered in lanes: read lane by lane, the compares compiled to branches and took twice the time.
+    AxisCounts in_box(AxisLanes x, std::size_t box) const
+    {
+        const AxisCounts in = (x >= lower_[box]) & (x <= upper_[box]);
+        return in & __builtin_shufflevector(in, in, 1, 2, 0, 3) & __builtin_shufflevector(in, in, 2, 0, 1, 3);
+    }
+
     const AxisLanes* lower_faces(int structure) const { return &lower_[std::size_t(structure) * std::size_t(boxes_)]; }
     const AxisLanes* upper_faces(int structure) const { return &upper_[std::size_t(structure) * std::size_t(boxes_)]; }
 
