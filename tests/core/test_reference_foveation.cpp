@@ -310,6 +310,30 @@ TEST(ReferenceFoveation, VoxelDownsampleHandExample)
     EXPECT_EQ(result.points[3], points[3]);
 }
 
+TEST(ReferenceFoveation, DownsamplingCarriesColours)
+{
+    // Voxel size 1: points 0, 1, 2 share voxel (0,0,0), point 3 is alone in (1,0,0).
+    const std::vector<Point> points = {{0.1f, 0.1f, 0.1f}, {0.5f, 0.5f, 0.5f}, {0.9f, 0.9f, 0.9f}, {1.5f, 0.5f, 0.5f}};
+    const std::vector<Rgb> colors = {{255, 0, 10}, {254, 1, 11}, {0, 1, 11}, {7, 8, 9}};
+    const std::vector<std::uint32_t> region = {3, 2, 1, 0};
+    const auto voxel = reference::reference_downsample(points, region, 1.0f, Downsample::voxel, colors);
+    ASSERT_EQ(voxel.colors.size(), 2u);
+    // r: 509 / 3 = 169.67 rounds up; g: 2 / 3 = 0.67 rounds up; b: 32 / 3 = 10.67 rounds up.
+    EXPECT_EQ(voxel.colors[0], (Rgb{170, 1, 11}));
+    EXPECT_EQ(voxel.colors[1], colors[3]);
+    const std::vector<std::uint32_t> pair = {0, 1};
+    // r: 509 / 2 = 254.5, a half, rounds up; g: 1 / 2 rounds up; b: 21 / 2 rounds up.
+    EXPECT_EQ(reference::reference_downsample(points, pair, 1.0f, Downsample::voxel, colors).colors[0],
+              (Rgb{255, 1, 11}));
+
+    const auto uniform = reference::reference_downsample(points, region, 1.0f, Downsample::uniform, colors);
+    ASSERT_EQ(uniform.indices, (std::vector<std::uint32_t>{1, 3}));
+    EXPECT_EQ(uniform.colors, (std::vector<Rgb>{colors[1], colors[3]}));
+    EXPECT_TRUE(reference::reference_downsample(points, region, 1.0f, Downsample::voxel).colors.empty());
+    const std::vector<Rgb> short_colors(colors.begin(), colors.end() - 1);
+    EXPECT_THROW(reference::reference_downsample(points, region, 1.0f, Downsample::voxel, short_colors), Error);
+}
+
 TEST(ReferenceFoveation, UniformDownsampleKeepsTheOriginalPointNearestTheCentre)
 {
     // Voxel size 1: centres at (k + 0.5). Points 0 and 2 are equally far from (0.5,0.5,0.5).

@@ -118,7 +118,14 @@ TEST_P(FoveateAgainstReference, DownsamplingEqualsReferencePerRegion)
     PointCloud cloud;
     cloud.points = points;
     cloud.width = std::uint32_t(points.size());
-    const PointIndex index(cloud.points, {c.index_voxel});
+    std::mt19937 rng(c.seed + 200);
+    for (std::size_t i = 0; i < points.size(); ++i) {
+        cloud.colors.push_back({std::uint8_t(rng()), std::uint8_t(rng()), std::uint8_t(rng())});
+    }
+    // Odd seeds index the points alone, so colours are read point by point; even seeds index the
+    // coloured cloud, so whole voxels bring their colour sums.
+    const PointIndex index = c.seed % 2 ? PointIndex(cloud.points, {c.index_voxel}) : PointIndex(cloud, {c.index_voxel});
+    ASSERT_EQ(index.sums_colors_of(cloud), c.seed % 2 == 0);
     const FoveationRegions regions = foveation_regions(index, structures, FoveationMode::mfpc);
 
     for (const Downsample mode : {Downsample::voxel, Downsample::uniform}) {
@@ -127,7 +134,8 @@ TEST_P(FoveateAgainstReference, DownsamplingEqualsReferencePerRegion)
         std::size_t begin = 0;
         for (const RegionSummary& summary : result.regions) {
             const auto members = regions.region(summary.structure, summary.level);
-            const auto expected = reference::reference_downsample(points, members, summary.density, mode);
+            const auto expected =
+                reference::reference_downsample(points, members, summary.density, mode, cloud.colors);
             ASSERT_EQ(summary.points_after, expected.points.size())
                 << to_string(mode) << " structure " << summary.structure << " level " << summary.level;
             std::vector<Point> got(result.cloud.points.begin() + std::ptrdiff_t(begin),
@@ -143,18 +151,30 @@ TEST_P(FoveateAgainstReference, DownsamplingEqualsReferencePerRegion)
                 // their voxel by their lowest-index point. The double sums run in another order,
                 // which could change the float centroid by an ulp; measured on these clouds they
                 // are identical, and 1e-6 m is the allowance for that rounding.
-                std::vector<std::pair<reference::VoxelKey, Point>> ours;
+                // Colour means are integer sums, the same in any order: equal exactly.
+                struct Centroid {
+                    reference::VoxelKey key;
+                    Point point;
+                    Rgb color;
+                };
+                std::vector<Centroid> ours;
                 for (std::size_t i = 0; i < got.size(); ++i) {
-                    ours.emplace_back(reference::voxel_key(points[got_sources[i]], summary.density), got[i]);
+                    ours.push_back({reference::voxel_key(points[got_sources[i]], summary.density), got[i],
+                                    result.cloud.colors[begin + i]});
                 }
-                std::sort(ours.begin(), ours.end(),
-                          [](const auto& a, const auto& b) { return a.first < b.first; });
+                std::sort(ours.begin(), ours.end(), [](const auto& a, const auto& b) { return a.key < b.key; });
                 for (std::size_t i = 0; i < ours.size(); ++i) {
-                    EXPECT_LT((ours[i].second - expected.points[i]).cwiseAbs().maxCoeff(), 1e-6f)
+                    EXPECT_LT((ours[i].point - expected.points[i]).cwiseAbs().maxCoeff(), 1e-6f)
+                        << "voxel " << i << " of structure " << summary.structure << " level " << summary.level;
+                    EXPECT_EQ(ours[i].color, expected.colors[i])
                         << "voxel " << i << " of structure " << summary.structure << " level " << summary.level;
                 }
             } else {
-                // Kept original points: the same set (ours in voxel order, the reference's ascending).
+                // Kept original points, with their colours: the same set (ours in voxel order, the
+                // reference's ascending).
+                for (std::size_t i = 0; i < got_sources.size(); ++i) {
+                    EXPECT_EQ(result.cloud.colors[begin + i], cloud.colors[got_sources[i]]);
+                }
                 std::sort(got_sources.begin(), got_sources.end());
                 EXPECT_EQ(got_sources, expected.indices);
             }

@@ -23,6 +23,10 @@
 //    voxel (summed in double, in increasing point index, rounded to float at the end); uniform mode
 //    keeps the original point nearest the voxel centre (key + 0.5) * d, in double, ties to the
 //    lowest point index. d == 0 keeps every point.
+//  - Colours, when given, go with the points: a kept original point keeps its colour; a centroid
+//    gets the per-channel mean of its voxel's colours rounded to nearest, halves up, as integers
+//    (floor((2 sum + count) / (2 count))). The paper's pipeline downsamples coloured clouds this
+//    way (PCL's VoxelGrid averages every field), so the reference does the same work as the kernels.
 
 #include <algorithm>
 #include <array>
@@ -135,16 +139,21 @@ struct Downsampled {
     // uniform mode and d == 0: the kept original point indices, ascending. Empty in voxel mode
     // (a centroid is no original point).
     std::vector<std::uint32_t> indices;
+    // The colours of `points`, when colours were given; empty otherwise.
+    std::vector<Rgb> colors;
 };
 
 // Downsamples one level region (`region` holds point indices into `points`, each once) with voxel
-// size d, per the rules in the header comment.
+// size d, per the rules in the header comment. `colors` is empty or one colour per point.
 inline Downsampled reference_downsample(std::span<const Point> points,
                                         std::span<const std::uint32_t> region, float d,
-                                        Downsample mode)
+                                        Downsample mode, std::span<const Rgb> colors = {})
 {
     if (!(d >= 0.0f) || !std::isfinite(d)) {
         throw Error("reference_downsample", "voxel size must be finite and not negative");
+    }
+    if (!colors.empty() && colors.size() != points.size()) {
+        throw Error("reference_downsample", "colours and points differ in number");
     }
     std::vector<std::uint32_t> sorted(region.begin(), region.end());
     std::sort(sorted.begin(), sorted.end());
@@ -176,24 +185,39 @@ inline Downsampled reference_downsample(std::span<const Point> points,
             for (const auto& entry : nearest) result.indices.push_back(entry.second);
             std::sort(result.indices.begin(), result.indices.end());
         }
-        for (std::uint32_t index : result.indices) result.points.push_back(points[index]);
+        for (std::uint32_t index : result.indices) {
+            result.points.push_back(points[index]);
+            if (!colors.empty()) result.colors.push_back(colors[index]);
+        }
         return result;
     }
 
     struct Sum {
         std::array<double, 3> xyz{};
+        std::array<std::uint64_t, 3> rgb{};
         std::uint64_t count = 0;
     };
     std::map<VoxelKey, Sum> sums;  // ordered by key, lexicographic x, y, z
     for (std::uint32_t index : sorted) {
         Sum& sum = sums[voxel_key(points[index], d)];
         for (int axis = 0; axis < 3; ++axis) sum.xyz[axis] += double(points[index][axis]);
+        if (!colors.empty()) {
+            sum.rgb[0] += colors[index].r;
+            sum.rgb[1] += colors[index].g;
+            sum.rgb[2] += colors[index].b;
+        }
         ++sum.count;
     }
     for (const auto& [key, sum] : sums) {
         const double count = double(sum.count);
         result.points.emplace_back(float(sum.xyz[0] / count), float(sum.xyz[1] / count),
                                    float(sum.xyz[2] / count));
+        if (!colors.empty()) {
+            const auto mean = [&](std::uint64_t total) {
+                return std::uint8_t((2 * total + sum.count) / (2 * sum.count));
+            };
+            result.colors.push_back({mean(sum.rgb[0]), mean(sum.rgb[1]), mean(sum.rgb[2])});
+        }
     }
     return result;
 }
