@@ -1,5 +1,6 @@
 #include "mfpc/core/error.hpp"
 
+#include <charconv>
 #include <utility>
 
 namespace mfpc {
@@ -17,5 +18,19 @@ Error::Error(std::string where, std::string reason)
 }
 
 Error::Error(std::string reason) : Error(std::string(), std::move(reason)) {}
+
+std::string format_number(float value)
+{
+    char buffer[64];
+    const auto result = std::to_chars(buffer, buffer + sizeof buffer, value);
+    return std::string(buffer, result.ptr);
+}
+
+std::string format_number(double value)
+{
+    char buffer[64];
+    const auto result = std::to_chars(buffer, buffer + sizeof buffer, value);
+    return std::string(buffer, result.ptr);
+}
 
 }  // namespace mfpc

@@ -1,13 +1,10 @@
 #include "mfpc/core/foveation_config.hpp"
 
-#include <algorithm>
-#include <cctype>
 #include <charconv>
 #include <cmath>
 #include <cstdint>
 #include <initializer_list>
 #include <limits>
-#include <set>
 #include <string>
 #include <vector>
 
@@ -15,6 +12,7 @@
 
 #include "cloud_format.hpp"  // quoted, narrow_to_float
 #include "mfpc/core/error.hpp"
+#include "mfpc/core/json_check.hpp"
 #include "mfpc/core/text_file.hpp"
 
 namespace mfpc {
@@ -27,21 +25,6 @@ using nlohmann::json;
 constexpr std::int64_t max_label = std::numeric_limits<std::int16_t>::max();
 
 const char* const axis_names[] = {"x", "y", "z"};
-
-// The shortest text that reads back as `value` (std::to_chars), for messages and for to_json.
-std::string format_number(float value)
-{
-    char buffer[64];
-    const auto result = std::to_chars(buffer, buffer + sizeof buffer, value);
-    return std::string(buffer, result.ptr);
-}
-
-std::string format_number(double value)
-{
-    char buffer[64];
-    const auto result = std::to_chars(buffer, buffer + sizeof buffer, value);
-    return std::string(buffer, result.ptr);
-}
 
 // How the parser reads a number: JSON numbers are read as double (nlohmann uses the correctly
 // rounded strtod), then rounded to float where a float is stored.
@@ -59,85 +42,6 @@ float offset_from_center(double center, float outer_min, float outer_size)
     // Centre and box are each within float range, but their difference need not be.
     return detail::narrow_to_float(center - double(outer_min) - 0.5 * double(outer_size));
 }
-
-// A key of the document as it goes into a key path: a plain name as it is, anything else quoted
-// (control characters shown as '?'), so that a message stays one line and a key holding '.' or
-// ": " cannot pose as a path.
-std::string key_text(const std::string& key)
-{
-    const bool plain = !key.empty() && key.size() <= 60 && std::all_of(key.begin(), key.end(), [](char c) {
-        return std::isalnum(static_cast<unsigned char>(c)) || c == '_' || c == '-';
-    });
-    return plain ? key : detail::quoted(key);
-}
-
-// Rejects duplicate keys while parsing (nlohmann would silently keep the last one) and names them
-// by their key path. The callback sees the document as a stream of events; `frames` is the stack
-// of open objects and arrays, enough to spell the path of the value being read.
-class DuplicateKeyCheck {
-public:
-    explicit DuplicateKeyCheck(const std::string& source) : source_(source) {}
-
-    bool operator()(int /*depth*/, json::parse_event_t event, json& parsed)
-    {
-        switch (event) {
-        case json::parse_event_t::object_start:
-            enter_element();
-            frames_.push_back({false, 0, {}, {}});
-            break;
-        case json::parse_event_t::array_start:
-            enter_element();
-            frames_.push_back({true, 0, {}, {}});
-            break;
-        case json::parse_event_t::object_end:
-        case json::parse_event_t::array_end:
-            frames_.pop_back();
-            break;
-        case json::parse_event_t::key: {
-            Frame& frame = frames_.back();
-            frame.key = parsed.get<std::string>();
-            if (!frame.seen.insert(frame.key).second) {
-                throw Error(source_ + ": " + path(), "duplicate key");
-            }
-            break;
-        }
-        case json::parse_event_t::value:
-            enter_element();
-            break;
-        }
-        return true;
-    }
-
-private:
-    struct Frame {
-        bool array;
-        std::size_t count;  // elements seen so far (arrays)
-        std::string key;    // the key being read (objects)
-        std::set<std::string> seen;
-    };
-
-    void enter_element()
-    {
-        if (!frames_.empty() && frames_.back().array) ++frames_.back().count;
-    }
-
-    std::string path() const
-    {
-        std::string text;
-        for (const Frame& frame : frames_) {
-            if (frame.array) {
-                text += "[" + std::to_string(frame.count - 1) + "]";
-            } else {
-                if (!text.empty()) text += ".";
-                text += key_text(frame.key);
-            }
-        }
-        return text;
-    }
-
-    const std::string& source_;
-    std::vector<Frame> frames_;
-};
 
 // Reads one config; every error names the source and the key path.
 class Reader {
@@ -164,7 +68,7 @@ public:
 
     static std::string join(const std::string& key, const std::string& member)
     {
-        return key.empty() ? key_text(member) : key + "." + key_text(member);
+        return key.empty() ? json_key_text(member) : key + "." + json_key_text(member);
     }
 
     float read_float(const json& value, const std::string& key) const
@@ -219,13 +123,13 @@ public:
         if (!value.is_number_integer()) {
             fail(key, std::string("must be an integer, not ") + value.type_name());
         }
-        if (value.is_number_unsigned() && value.get<std::uint64_t>() > std::uint64_t(max_label)) {
-            fail(key, "at most " + std::to_string(max_label) + " levels are supported");
+        if (value.is_number_unsigned() && value.get<std::uint64_t>() > std::uint64_t(max_levels)) {
+            fail(key, "at most " + std::to_string(max_levels) + " levels are supported");
         }
         const std::int64_t levels = value.get<std::int64_t>();
         if (levels < 1) fail(key, "needs at least 1 level, got " + std::to_string(levels));
-        if (levels > max_label) {
-            fail(key, "at most " + std::to_string(max_label) + " levels are supported");
+        if (levels > max_levels) {
+            fail(key, "at most " + std::to_string(max_levels) + " levels are supported");
         }
         return static_cast<int>(levels);
     }
@@ -347,6 +251,13 @@ public:
         for (int axis = 0; axis < 3; ++axis) {
             const float offset = structure.fovea_offset[axis];
             if (std::abs(offset) <= limit[axis]) continue;
+            // A fovea flush with its outer box (a centre written as the box's edge minus half the
+            // fovea) lands a few float roundings beyond the limit: that is on the face, not out.
+            const float scale = std::abs(structure.outer_min[axis]) + structure.outer_size[axis];
+            if (std::abs(offset) - limit[axis] <= 8.0f * std::numeric_limits<float>::epsilon() * scale) {
+                structure.fovea_offset[axis] = offset > 0.0f ? limit[axis] : -limit[axis];
+                continue;
+            }
             const float clamped = offset > 0.0f ? limit[axis] : -limit[axis];
             std::string what = std::string("fovea outside the outer box on ") + axis_names[axis] +
                                ": offset " + format_number(offset) + " beyond ±" +
@@ -410,9 +321,11 @@ std::string json_fovea_center(const FoveatedStructure& structure)
 FoveationConfig parse_foveation_config(std::string_view json_text, const std::string& source,
                                        FoveaPolicy policy, std::vector<std::string>* warnings)
 {
+    // Duplicate keys, deep nesting and syntax errors, named the way every JSON reader names them.
+    check_json_text(json_text, source);
     json root;
     try {
-        root = json::parse(json_text.begin(), json_text.end(), DuplicateKeyCheck(source));
+        root = json::parse(json_text.begin(), json_text.end());
     } catch (const json::exception& error) {
         // A syntax error (parse_error) or a number beyond double (out_of_range, "1e999").
         // nlohmann's message reads "[json.exception.parse_error.101] parse error at line 3, ...":

@@ -147,7 +147,9 @@ void check_structures(std::span<const FoveatedStructure> structures)
     const int m = structures[0].levels;
     if (m < 1) throw Error("foveation", "levels must be at least 1, got " + std::to_string(m));
     // Levels travel as 8-bit numbers through the labelling (LevelRange).
-    if (m > 126) throw Error("foveation", "levels must be at most 126, got " + std::to_string(m));
+    if (m > max_levels) {
+        throw Error("foveation", "levels must be at most " + std::to_string(max_levels) + ", got " + std::to_string(m));
+    }
     for (std::size_t s = 1; s < structures.size(); ++s) {
         if (structures[s].levels != m) {
             throw Error("foveation", "structures have different levels (structure 0: " + std::to_string(m) +
@@ -584,7 +586,7 @@ RegionOutput downsample_region(const PointCloud& cloud, const RegionMembers& reg
     const double inverse = 1.0 / d;
     // Voxel coordinates beyond 2^62 would overflow the integer conversion.
     if (std::max(box.min.cwiseAbs().maxCoeff(), box.max.cwiseAbs().maxCoeff()) * inverse > 1e15) {
-        throw Error(where(), "coordinates too large for voxels of size " + std::to_string(density));
+        throw Error(where(), "coordinates too large for voxels of size " + format_number(density));
     }
     Eigen::Matrix<std::int64_t, 3, 1> lowest;
     Eigen::Matrix<std::int64_t, 3, 1> extent;
@@ -592,7 +594,7 @@ RegionOutput downsample_region(const PointCloud& cloud, const RegionMembers& reg
         lowest[axis] = voxel_of(box.min[axis], inverse);
         extent[axis] = voxel_of(box.max[axis], inverse) - lowest[axis] + 1;
         if (extent[axis] > max_voxels_per_axis) {
-            throw Error(where(), "region spans more than 2^21 voxels of size " + std::to_string(density) + " on one axis");
+            throw Error(where(), "region spans more than 2^21 voxels of size " + format_number(density) + " on one axis");
         }
     }
     detail::VoxelSlots slots(extent, region.count);

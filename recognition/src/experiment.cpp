@@ -2,10 +2,12 @@
 
 #include <algorithm>
 #include <set>
+#include <string>
 
 #include <nlohmann/json.hpp>
 
 #include "mfpc/core/error.hpp"
+#include "mfpc/core/json_check.hpp"
 #include "mfpc/core/text_file.hpp"
 
 namespace mfpc {
@@ -94,11 +96,18 @@ void append_result(RecognitionResult& into, RecognitionResult&& part)
 ExperimentConfig read_experiment_config(const std::filesystem::path& path)
 {
     const std::string file = path.string();
+    const std::string text = read_text_file(path);
+    // Duplicate keys, deep nesting and syntax errors, named the way every JSON reader names them.
+    check_json_text(text, file);
     json root;
     try {
-        root = json::parse(read_text_file(path));
+        root = json::parse(text);
     } catch (const json::exception& error) {
-        throw Error(file, std::string("invalid JSON: ") + error.what());
+        // Not reached (check_json_text has parsed this very text); kept so that a failure here is
+        // still an mfpc::Error, without nlohmann's "[json.exception.parse_error.101] " prefix.
+        const std::string message = error.what();
+        const auto start = message.find("] ");
+        throw Error(file, "invalid JSON: " + (start == std::string::npos ? message : message.substr(start + 2)));
     }
     const std::string top = file + ": ";
     check_keys(root, top, {"model", "scene", "ground_truth", "params", "runs", "reference", "strategies"});
@@ -128,6 +137,11 @@ ExperimentConfig read_experiment_config(const std::filesystem::path& path)
         check_keys(item, where.substr(0, where.size() - 1), {"name", "mode", "fovea", "structure"});
         ExperimentStrategy strategy;
         strategy.name = text_of(item, "name", where, true);
+        // Names head table rows, chart labels and progress lines: a control character or a '|'
+        // would break them, a '"' the charts' data file.
+        if (std::any_of(strategy.name.begin(), strategy.name.end(),
+                        [](char c) { return (unsigned char)(c) < 0x20 || c == 0x7f || c == '|' || c == '"'; }))
+            throw Error(where + "name", "must not hold control characters, '|' or '\"'");
         if (!names.insert(strategy.name).second) throw Error(where + "name", "'" + strategy.name + "' is used twice");
         const std::string mode = text_of(item, "mode", where, true);
         strategy.serial = mode == "serial";

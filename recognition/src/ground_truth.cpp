@@ -12,6 +12,7 @@
 #include <nlohmann/json.hpp>
 
 #include "mfpc/core/error.hpp"
+#include "mfpc/core/json_check.hpp"
 #include "mfpc/core/text_file.hpp"
 
 namespace mfpc {
@@ -123,11 +124,15 @@ std::vector<Pose> GroundTruthInstance::equivalent_transforms() const
 GroundTruth read_ground_truth(const std::filesystem::path& path)
 {
     const std::string file = path.string();
+    const std::string text = read_text_file(path);
+    // Duplicate keys, deep nesting and syntax errors, named the way every JSON reader names them.
+    check_json_text(text, file);
     json root;
     try {
-        root = json::parse(read_text_file(path));
+        root = json::parse(text);
     } catch (const json::exception& error) {
-        // A syntax error (parse_error) or a number beyond double (out_of_range, "1e999").
+        // Not reached (check_json_text has parsed this very text); kept so that a failure here is
+        // still an mfpc::Error.
         throw Error(file, "invalid JSON: " + without_prefix(error.what()));
     }
     if (!root.is_object()) throw Error(file, "ground truth must be a JSON object");

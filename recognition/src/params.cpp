@@ -9,6 +9,7 @@
 #include <nlohmann/json.hpp>
 
 #include "mfpc/core/error.hpp"
+#include "mfpc/core/json_check.hpp"
 #include "mfpc/core/text_file.hpp"
 
 namespace mfpc {
@@ -162,7 +163,12 @@ void check_recognition_params(const RecognitionParams& p, const std::string& sou
     check_positive(p.grouping.gc_size, source, "gc_size");
     if (p.grouping.gc_threshold < 3) throw Error(source + ": gc_threshold", "must be at least 3");
     check_positive(p.grouping.ransac_distance, source, "ransac_distance");
-    if (p.grouping.ransac_iterations < 1) throw Error(source + ": ransac_iterations", "must be at least 1");
+    // Each iteration is a pass over the cluster's correspondences, for every cluster, so a huge count
+    // (1000000000) looks like a hang. 100000 is 200 times the default and more than RANSAC needs:
+    // with 5% inliers, 100000 draws all miss an all-inlier sample with probability below 1e-5.
+    if (p.grouping.ransac_iterations < 1 || p.grouping.ransac_iterations > 100000)
+        throw Error(source + ": ransac_iterations",
+                    "must lie in 1..100000, got " + std::to_string(p.grouping.ransac_iterations));
     if (p.refine.iterations < 0 || p.refine.iterations > 10000)
         throw Error(source + ": refine.iterations", "must lie in 0..10000");
     check_positive(p.refine.max_distance, source, "refine.max_distance");
@@ -179,11 +185,18 @@ void check_recognition_params(const RecognitionParams& p, const std::string& sou
 
 RecognitionParams parse_recognition_params(std::string_view json_text, const std::string& source)
 {
+    // Duplicate keys, deep nesting and syntax errors, named the way every JSON reader names them
+    // (nlohmann alone keeps the last of two equal keys and reports errors with its own prefix).
+    check_json_text(json_text, source);
     json root;
     try {
         root = json::parse(json_text);
-    } catch (const json::parse_error& e) {
-        throw Error(source, std::string("invalid JSON: ") + e.what());
+    } catch (const json::exception& error) {
+        // Not reached (check_json_text has parsed this very text); kept so that a failure here is
+        // still an mfpc::Error, without nlohmann's "[json.exception.parse_error.101] " prefix.
+        const std::string message = error.what();
+        const auto start = message.find("] ");
+        throw Error(source, "invalid JSON: " + (start == std::string::npos ? message : message.substr(start + 2)));
     }
     RecognitionParams p;
     {

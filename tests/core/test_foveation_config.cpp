@@ -14,6 +14,7 @@
 #include "mfpc/core/cloud_io.hpp"
 #include "mfpc/core/error.hpp"
 #include "mfpc/core/foveation_config.hpp"
+#include "mfpc/core/json_check.hpp"
 #include "mfpc/core/pose.hpp"
 #include "test_support.hpp"
 
@@ -220,6 +221,35 @@ TEST(FoveationConfig, StrictPolicyRejectsAFoveaOutsideTheOuterBox)
     EXPECT_TRUE(warnings.empty());
 }
 
+// A fovea centre written flush with the outer box's face lands a float rounding or two beyond the
+// limit: on the face, so accepted under --strict and not warned about.
+TEST(FoveationConfig, AFoveaFlushWithItsOuterBoxIsInside)
+{
+    for (const char* center : {"[0.65, 0.45, 1.5]", "[0.25, 0.25, 0.8]"}) {
+        const std::string text =
+            "{\"levels\": 3, \"structures\": [{\"outer_min\": [0.1, 0.2, 0.7], \"outer_size\": [0.7, 0.3, 0.9], "
+            "\"fovea_size\": [0.3, 0.1, 0.2], \"density\": [0.02, 0.005], \"keypoint_radius\": [0.03, 0.01], "
+            "\"fovea_center\": " +
+            std::string(center) + "}]}";
+        std::vector<std::string> warnings;
+        EXPECT_NO_THROW(parse_foveation_config(text, "cfg.json", FoveaPolicy::strict, &warnings)) << center;
+        parse_foveation_config(text, "cfg.json", FoveaPolicy::clamp, &warnings);
+        EXPECT_TRUE(warnings.empty()) << center << ": " << (warnings.empty() ? "" : warnings[0]);
+    }
+    // A fovea as large as its outer box: the only offset is 0.
+    const std::string same = "{\"levels\": 2, \"structures\": [{\"outer_min\": [0.1, 0.2, 0.7], \"outer_size\": "
+                             "[0.3, 0.3, 0.3], \"fovea_size\": [0.3, 0.3, 0.3], \"density\": [0.02, 0.005], "
+                             "\"keypoint_radius\": [0.03, 0.01], "
+                             "\"fovea_center\": [0.25, 0.35, 0.85]}]}";
+    EXPECT_NO_THROW(parse_foveation_config(same, "cfg.json", FoveaPolicy::strict));
+}
+
+// The foveation kernel's bound on levels is the reader's.
+TEST(FoveationConfig, LevelsAreBoundedAsTheKernelBoundsThem)
+{
+    EXPECT_EQ(error_of("{\"levels\": 127, \"structures\": []}"), "cfg.json: levels: at most 126 levels are supported");
+}
+
 TEST(FoveationConfig, RejectsBadJson)
 {
     const std::string what = error_of("{\"levels\": 3,\n \"structures\": [}");
@@ -301,6 +331,58 @@ TEST(FoveationConfig, RejectsDuplicateKeys)
     twice.emplace_back("density", "[0.01, 0.001]");
     expect_error(config_text(base_config({base_structure(), base_structure(), twice})),
                  "structures[2].density", "duplicate key");
+}
+
+// `depth` arrays, one inside the other: "[[[...]]]".
+std::string nested_arrays(int depth)
+{
+    return std::string(std::size_t(depth), '[') + std::string(std::size_t(depth), ']');
+}
+
+// The what() of check_json_text on `text`, or "" when the text passes.
+std::string check_error(const std::string& text)
+{
+    try {
+        check_json_text(text, "in.json");
+    } catch (const Error& error) {
+        return error.what();
+    }
+    return {};
+}
+
+// check_json_text is what every JSON reader runs first (the foveation config reader included), so
+// its rules are tested here once and each reader's tests check only that it calls it.
+TEST(JsonCheck, RejectsDuplicateKeysByTheirPath)
+{
+    EXPECT_EQ(check_error(R"({"a": 1, "b": {"c": [1, {"d": 1, "d": 2}]}})"), "in.json: b.c[1].d: duplicate key");
+    EXPECT_EQ(check_error(R"({"a": 1, "a": 1})"), "in.json: a: duplicate key");
+    // The same key in two different objects is fine.
+    EXPECT_EQ(check_error(R"({"a": {"k": 1}, "b": {"k": 1}, "c": [{"k": 1}, {"k": 2}]})"), "");
+}
+
+TEST(JsonCheck, LimitsTheNestingDepth)
+{
+    EXPECT_EQ(check_error(nested_arrays(20)), "");
+    EXPECT_EQ(check_error(nested_arrays(json_depth_limit)), "");
+    EXPECT_EQ(check_error(nested_arrays(json_depth_limit + 1)), "in.json: invalid JSON: nested deeper than 64 levels");
+    EXPECT_EQ(check_error(nested_arrays(100)), "in.json: invalid JSON: nested deeper than 64 levels");
+    // Objects count as levels too; the limit stops the parser before the end of the text, so an
+    // unclosed document that deep is refused for its depth.
+    std::string objects;
+    for (int i = 0; i < 100; ++i) objects += "{\"k\": ";
+    EXPECT_EQ(check_error(objects), "in.json: invalid JSON: nested deeper than 64 levels");
+    // The foveation config reader applies it before reading any key.
+    EXPECT_EQ(error_of(nested_arrays(100)), "cfg.json: invalid JSON: nested deeper than 64 levels");
+}
+
+TEST(JsonCheck, SyntaxErrorsWithoutTheParserPrefix)
+{
+    const std::string what = check_error("{\"a\": [1,\n 2,}");
+    EXPECT_EQ(what.rfind("in.json: invalid JSON: parse error at line 2", 0), 0u) << what;
+    EXPECT_EQ(what.find("json.exception"), std::string::npos) << what;
+    EXPECT_EQ(check_error("[1e999]"), "in.json: invalid JSON: number overflow parsing '1e999'");
+    EXPECT_EQ(check_error("").rfind("in.json: invalid JSON: ", 0), 0u);
+    EXPECT_EQ(check_error(R"({"a": [1, 2, {"b": null}], "c": "text"})"), "");
 }
 
 // User text (keys, values) reaches messages quoted, with control characters shown as '?', so a

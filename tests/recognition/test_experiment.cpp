@@ -68,6 +68,26 @@ TEST(ExperimentConfig, BadConfigsNameTheKey)
               "reference: 'b' names no strategy");
 }
 
+// Keys given twice, deep nesting and syntax errors read as in every MFPC JSON reader
+// (check_json_text; its own tests are in tests/core).
+TEST(ExperimentConfig, RejectsDuplicateKeysDeepNestingAndBadJson)
+{
+    TempDir dir;
+    const std::string files = "\"model\": \"m.pcd\", \"scene\": \"s.pcd\", \"ground_truth\": \"g.json\"";
+    EXPECT_EQ(config_error(dir, "{" + files + ", \"model\": \"n.pcd\", \"strategies\": []}"), "model: duplicate key");
+    EXPECT_EQ(config_error(dir, "{" + files +
+                                    ", \"strategies\": [{\"name\": \"a\", \"mode\": \"none\", \"mode\": \"mfpc\"}]}"),
+              "strategies[0].mode: duplicate key");
+    // Inline parameters are part of the same document: their duplicates are named by full path.
+    EXPECT_EQ(config_error(dir, "{" + files + ", \"params\": {\"match_k\": 1, \"match_k\": 2}, \"strategies\": []}"),
+              "params.match_k: duplicate key");
+    EXPECT_EQ(config_error(dir, "{" + files + ", \"strategies\": " + std::string(100, '[') + std::string(100, ']') + "}"),
+              "invalid JSON: nested deeper than 64 levels");
+    // nlohmann's "[json.exception.parse_error.101] " prefix is left out.
+    const std::string syntax = config_error(dir, "{\"model\": \n}");
+    EXPECT_EQ(syntax.rfind("invalid JSON: parse error at line 2", 0), 0u) << syntax;
+}
+
 TEST(Experiment, StrategyIdentitiesHoldOnMilkPair)
 {
     MFPC_SHARED_FILE_OR_SKIP(model_path, "milk.pcd");

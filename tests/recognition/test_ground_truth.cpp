@@ -90,6 +90,18 @@ TEST(GroundTruth, RejectsInvalidJson)
     EXPECT_EQ(error_of(dir, "[1, 2]"), "ground truth must be a JSON object");
 }
 
+// Keys given twice and deep nesting are refused as every MFPC JSON reader refuses them
+// (check_json_text; its own tests are in tests/core).
+TEST(GroundTruth, RejectsDuplicateKeysAndDeepNesting)
+{
+    TempDir dir;
+    EXPECT_EQ(error_of(dir, one_instance(", \"object\": \"a\", \"object\": \"b\"")),
+              "instances[0].object: duplicate key");
+    EXPECT_EQ(error_of(dir, "{\"instances\": [], \"instances\": []}"), "instances: duplicate key");
+    EXPECT_EQ(error_of(dir, "{\"instances\": " + std::string(100, '[') + std::string(100, ']') + "}"),
+              "invalid JSON: nested deeper than 64 levels");
+}
+
 TEST(GroundTruth, RejectsBadTransforms)
 {
     TempDir dir;

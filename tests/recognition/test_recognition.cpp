@@ -240,6 +240,32 @@ TEST(RecognitionParams, DefaultsRoundTripAndBadValuesAreNamed)
     EXPECT_NE(message("{").find("invalid JSON"), std::string::npos);
 }
 
+// Keys given twice and deep nesting are refused as every MFPC JSON reader refuses them
+// (check_json_text; its own tests are in tests/core); the RANSAC count is bounded like the others.
+TEST(RecognitionParams, RejectsDuplicateKeysDeepNestingAndEndlessRansac)
+{
+    const auto message = [](const std::string& text) {
+        try {
+            parse_recognition_params(text, "p.json");
+        } catch (const Error& e) {
+            return std::string(e.what());
+        }
+        return std::string("no error");
+    };
+    EXPECT_EQ(message(R"({"match_k": 5, "match_k": 6})"), "p.json: match_k: duplicate key");
+    EXPECT_EQ(message(R"({"refine": {"iterations": 5, "iterations": 6}})"), "p.json: refine.iterations: duplicate key");
+    EXPECT_EQ(message("{\"scene\": " + std::string(100, '[') + std::string(100, ']') + "}"),
+              "p.json: invalid JSON: nested deeper than 64 levels");
+    const std::string syntax = message("{\n");
+    EXPECT_EQ(syntax.rfind("p.json: invalid JSON: parse error at line 2", 0), 0u) << syntax;
+
+    EXPECT_EQ(message(R"({"ransac_iterations": 1000000000})"),
+              "p.json: ransac_iterations: must lie in 1..100000, got 1000000000");
+    EXPECT_EQ(message(R"({"ransac_iterations": 0})"), "p.json: ransac_iterations: must lie in 1..100000, got 0");
+    EXPECT_EQ(parse_recognition_params(R"({"ransac_iterations": 100000})", "p.json").grouping.ransac_iterations, 100000);
+    EXPECT_EQ(parse_recognition_params(R"({"ransac_iterations": 1})", "p.json").grouping.ransac_iterations, 1);
+}
+
 TEST(ModelCache, RoundTripsAndRejectsDamage)
 {
     MFPC_SHARED_FILE_OR_SKIP(path, "milk.pcd");

@@ -100,6 +100,37 @@ TEST(CliRender, BadInputIsOneLineAndExitOne)
     EXPECT_FALSE(std::filesystem::exists(dir / "out.png"));
 }
 
+// The result file is read before the cloud, so these need no cloud on disk.
+TEST(CliRender, ResultWithDuplicateKeysDeepNestingOrTooManyInstancesIsRefused)
+{
+    const test::TempDir dir;
+    const auto render = [&](const std::filesystem::path& result) {
+        return run("render " + quoted(dir / "scene.pcd") + " --result " + quoted(result) + " -o " +
+                   quoted(dir / "out.png"));
+    };
+    const std::string instance = "{\"transform\": " + identity + "}";
+
+    const auto twice = dir.write("twice.json", "{\"model\": \"m.pcd\", \"instances\": [" + instance +
+                                                   ", {\"transform\": [], \"transform\": []}]}");
+    Result r = render(twice);
+    expect_one_line_error(r, 1, "duplicate key");
+    EXPECT_EQ(r.err, "mfpc: " + twice.string() + ": instances[1].transform: duplicate key\n");
+
+    const auto deep = dir.write("deep.json", "{\"model\": \"m.pcd\", \"instances\": " + std::string(100, '[') +
+                                                 std::string(100, ']') + "}");
+    r = render(deep);
+    expect_one_line_error(r, 1, "deep nesting");
+    EXPECT_EQ(r.err, "mfpc: " + deep.string() + ": invalid JSON: nested deeper than 64 levels\n");
+
+    // 1001 instances: refused before the model is even looked for (m.pcd does not exist).
+    std::string instances = instance;
+    for (int i = 1; i < 1001; ++i) instances += ", " + instance;
+    const auto many = dir.write("many.json", "{\"model\": \"m.pcd\", \"instances\": [" + instances + "]}");
+    r = render(many);
+    expect_one_line_error(r, 1, "too many instances");
+    EXPECT_EQ(r.err, "mfpc: " + many.string() + ": instances: holds 1001 instances; at most 1000 can be drawn\n");
+}
+
 TEST(CliRender, WritesAPngOfTheExpectedSizeWithInstancesInRed)
 {
     const SceneFiles files;

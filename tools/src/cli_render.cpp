@@ -13,6 +13,7 @@
 #include "mfpc/core/cloud_io.hpp"
 #include "mfpc/core/error.hpp"
 #include "mfpc/core/foveation_config.hpp"
+#include "mfpc/core/json_check.hpp"
 #include "mfpc/core/pose.hpp"
 #include "mfpc/recognition/model.hpp"
 #include "mfpc/tools/png_image.hpp"
@@ -39,6 +40,9 @@ struct Instances {
     std::vector<Pose> transforms;
 };
 
+// The most instances `--result` may hold (README, `mfpc render`).
+constexpr std::size_t max_instances = 1000;
+
 Instances read_instances(const std::filesystem::path& path)
 {
     const std::string where = path.string();
@@ -46,12 +50,17 @@ Instances read_instances(const std::filesystem::path& path)
     if (!std::filesystem::exists(path, status_error)) throw Error(where, "no such file");
     std::ifstream in(path, std::ios::binary);
     if (!in) throw Error(where, "cannot open (permissions?)");
-    std::stringstream text;
-    text << in.rdbuf();
+    std::stringstream stream;
+    stream << in.rdbuf();
+    const std::string text = stream.str();
+    // Duplicate keys, deep nesting and syntax errors, named the way every JSON reader names them.
+    check_json_text(text, where);
     nlohmann::json json;
     try {
-        json = nlohmann::json::parse(text.str());
+        json = nlohmann::json::parse(text);
     } catch (const nlohmann::json::exception&) {
+        // Not reached (check_json_text has parsed this very text); kept so that a failure here is
+        // still an mfpc::Error.
         throw Error(where, "not valid JSON (expected the --json output of `mfpc recognize`)");
     }
     if (!json.is_object()) throw Error(where, "not a recognize result: the top level is not an object");
@@ -59,6 +68,13 @@ Instances read_instances(const std::filesystem::path& path)
         throw Error(where + ": model", "missing or not a file name");
     if (!json.contains("instances") || !json["instances"].is_array())
         throw Error(where + ": instances", "missing or not an array");
+    // Every instance is a full copy of the model drawn over the scene: 20000 of them took over 20 s
+    // and 2 GB. A recognised scene holds a handful of objects, so more than max_instances means the
+    // wrong file, not a picture anyone can read.
+    if (json["instances"].size() > max_instances)
+        throw Error(where + ": instances", "holds " + std::to_string(json["instances"].size()) +
+                                               " instances; at most " + std::to_string(max_instances) +
+                                               " can be drawn");
 
     Instances instances;
     const std::filesystem::path model = json["model"].get<std::string>();

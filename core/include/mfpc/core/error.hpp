@@ -21,4 +21,9 @@ private:
     std::string reason_;
 };
 
+// The shortest text that reads back as `value` ("0.01", "1e-09", "inf"), for numbers in messages:
+// std::to_string prints six decimals, so a tiny value reads "0.000000" and hides the mistake.
+std::string format_number(float value);
+std::string format_number(double value);
+
 }  // namespace mfpc

@@ -16,6 +16,10 @@ namespace mfpc {
 //   δ_k = k (S_0 - S_m + 2F) / (2m)          (offset of box k's min corner from Δ)
 // Level k is downsampled with voxel size d_k = d_0 + k (d_m - d_0) / m; keypoints on level k use
 // radius r_k, interpolated the same way. A density of 0 keeps every point of the level.
+// The most levels m a structure may have: levels travel as 8-bit numbers through the labelling
+// kernel. The config reader and the kernel hold to the same bound.
+inline constexpr int max_levels = 126;
+
 struct FoveatedStructure {
     Eigen::Vector3f outer_min = Eigen::Vector3f::Zero();     // Δ
     Eigen::Vector3f outer_size = Eigen::Vector3f::Ones();    // S_0
