@@ -33,7 +33,7 @@ NeighborGrid::NeighborGrid(std::span<const Point> points, float cell_size)
     : points_(points), cell_size_(cell_size), inverse_cell_(1.0f / cell_size)
 {
     if (!(cell_size > 0.0f) || !std::isfinite(cell_size))
-        throw Error("neighbour grid", "cell size must be a positive number, got " + std::to_string(cell_size));
+        throw Error("neighbour grid", "cell size must be a positive number, got " + format_number(cell_size));
     if (points.size() >= std::numeric_limits<std::uint32_t>::max())
         throw Error("neighbour grid", "more than 2^32 - 1 points");
     if (points.empty()) return;
@@ -67,7 +67,7 @@ NeighborGrid::NeighborGrid(std::span<const Point> points, float cell_size)
     max_cell_ = bounds.hi;
     const Eigen::Vector3i extent = max_cell_ - min_cell_;
     if (extent.maxCoeff() >= (1 << axis_bits) - 1)
-        throw Error("neighbour grid", "the cloud spans more than 2^21 cells of " + std::to_string(cell_size) +
+        throw Error("neighbour grid", "the cloud spans more than 2^21 cells of " + format_number(cell_size) +
                                           " m on one axis; use a larger cell");
 
     // Points ordered by (cell key, index). The keys are dense: numbered row-major over the
@@ -234,7 +234,7 @@ void NeighborGrid::radius_search(const Point& center, float radius, std::vector<
 Neighborhoods NeighborGrid::radius_neighborhoods(std::span<const Point> centers, float radius) const
 {
     if (!(radius > 0.0f) || !std::isfinite(radius))
-        throw Error("neighbour grid", "neighbourhood radius must be a positive number, got " + std::to_string(radius));
+        throw Error("neighbour grid", "neighbourhood radius must be a positive number, got " + format_number(radius));
     Neighborhoods out;
     out.surface = points_;
     out.centers.assign(centers.begin(), centers.end());
@@ -400,16 +400,16 @@ void Neighborhoods::check_serves(std::span<const Point> points, std::span<const 
 {
     if (!is_of(points, at)) throw Error(where, "the support neighbourhoods are of other keypoints or another surface");
     if (radius < needed)
-        throw Error(where, "the support neighbourhoods reach " + std::to_string(radius) + ", " + what + " need " +
-                               std::to_string(needed));
+        throw Error(where, "the support neighbourhoods reach " + format_number(radius) + ", " + what + " need " +
+                               format_number(needed));
 }
 
 void Neighborhoods::within(std::size_t center, float r, std::vector<std::uint32_t>& indices_out,
                            std::vector<float>& squared_out) const
 {
     if (!(r <= radius))
-        throw Error("neighbour grid", "neighbourhoods of radius " + std::to_string(radius) + " cannot give radius " +
-                                          std::to_string(r));
+        throw Error("neighbour grid", "neighbourhoods of radius " + format_number(radius) + " cannot give radius " +
+                                          format_number(r));
     const auto found = indices_of(center);
     const auto squared = squared_distances_of(center);
     if (r == radius) {

@@ -39,7 +39,12 @@ PointIndex::PointIndex(std::span<const Point> points, const PointIndexParams& pa
     : points_(points), params_(params), grid_(std::make_unique<Grid>())
 {
     if (!(params.voxel_size > 0.0f) || !std::isfinite(params.voxel_size)) {
-        throw Error("index.voxel_size", "must be a positive number, got " + std::to_string(params.voxel_size));
+        throw Error("index.voxel_size", "must be a positive number, got " + format_number(params.voxel_size));
+    }
+    // OpenVDB refuses a transform whose scale cubed is within 1e-15 of zero (voxels of 1e-5 m).
+    if (params.voxel_size < min_index_voxel_size) {
+        throw Error("index.voxel_size", format_number(params.voxel_size) + " is below the smallest index voxel, " +
+                                            format_number(min_index_voxel_size) + " m");
     }
     if (points.size() >= std::numeric_limits<std::uint32_t>::max()) {
         throw Error("index", "clouds of 2^32 points or more are not supported");

@@ -356,10 +356,10 @@ std::size_t board_frames(std::span<const Point> keypoints, const NeighborGrid& s
         throw Error(where, "frames has " + std::to_string(frames.size()) + " entries for " +
                                std::to_string(keypoints.size()) + " keypoints");
     if (!(params.radius > 0.0f) || !std::isfinite(params.radius))
-        throw Error(where, "radius must be a positive number, got " + std::to_string(params.radius));
+        throw Error(where, "radius must be a positive number, got " + format_number(params.radius));
     if (!(params.tangent_radius >= 0.0f) || !std::isfinite(params.tangent_radius))
         throw Error(where, "tangent_radius must be 0 (the radius) or a positive number, got " +
-                               std::to_string(params.tangent_radius));
+                               format_number(params.tangent_radius));
     if (params.margin_bins < 1)
         throw Error(where, "margin_bins must be at least 1, got " + std::to_string(params.margin_bins));
     if (!(params.margin_threshold >= 0.0f) || !std::isfinite(params.margin_threshold))

@@ -535,7 +535,7 @@ std::size_t shot_descriptors(std::span<const Point> keypoints, const NeighborGri
                              const Neighborhoods* support)
 {
     if (!(params.radius > 0.0f) || !std::isfinite(params.radius))
-        throw Error("shot_descriptors", "radius must be a positive number, got " + std::to_string(params.radius));
+        throw Error("shot_descriptors", "radius must be a positive number, got " + format_number(params.radius));
     if (surface_normals.size() != surface.size())
         throw Error("shot_descriptors", std::to_string(surface_normals.size()) + " normals for " +
                                             std::to_string(surface.size()) + " surface points");

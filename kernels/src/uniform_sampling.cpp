@@ -1,6 +1,7 @@
 #include "mfpc/kernels/uniform_sampling.hpp"
 
 #include <algorithm>
+#include <atomic>
 #include <cmath>
 #include <cstdint>
 #include <string>
@@ -20,7 +21,7 @@ constexpr int axis_bits = 21;
 void check_radius(float radius, const char* what)
 {
     if (!(radius > 0.0f) || !std::isfinite(radius))
-        throw Error("uniform_sampling", std::string(what) + " must be a positive number, got " + std::to_string(radius));
+        throw Error("uniform_sampling", std::string(what) + " must be a positive number, got " + format_number(radius));
 }
 
 // PCL 1.13 compares the squared distances of 4-vectors (x, y, z, 1) - (cx, cy, cz, 0), reduced by
@@ -41,13 +42,31 @@ void sample_group(std::span<const Point> points, std::span<const std::uint32_t> 
     if (members.empty()) return;
     const float inverse = 1.0f / radius;
     std::vector<Eigen::Vector3i> cells(members.size());
+    // A cube number beyond int is undefined on conversion (and NaN has none): such points are
+    // found first and named, so that every cube number below fits, as do their differences.
+    constexpr float reach = float(1 << 30);
+    auto in_reach = [&](const Point& p) {
+        return std::abs(p.x() * inverse) < reach && std::abs(p.y() * inverse) < reach &&
+               std::abs(p.z() * inverse) < reach;
+    };
+    std::atomic<bool> beyond{false};
     tbb::parallel_for(tbb::blocked_range<std::size_t>(0, members.size(), 4096), [&](const auto& range) {
         for (std::size_t i = range.begin(); i < range.end(); ++i) {
             const Point& p = points[members[i]];
+            if (!in_reach(p)) {
+                beyond = true;
+                continue;
+            }
             cells[i] = Eigen::Vector3i(int(std::floor(p.x() * inverse)), int(std::floor(p.y() * inverse)),
                                        int(std::floor(p.z() * inverse)));
         }
     });
+    if (beyond) {
+        const auto far =
+            std::find_if(members.begin(), members.end(), [&](std::uint32_t m) { return !in_reach(points[m]); });
+        throw Error("uniform_sampling", "point " + std::to_string(*far) + " is not finite or lies more than 2^30 " +
+                                            "cubes of " + format_number(radius) + " m from the origin");
+    }
     Eigen::Vector3i lo = cells[0];
     Eigen::Vector3i hi = cells[0];
     for (const auto& c : cells) {
@@ -55,7 +74,7 @@ void sample_group(std::span<const Point> points, std::span<const std::uint32_t> 
         hi = hi.cwiseMax(c);
     }
     if ((hi - lo).maxCoeff() >= (1 << axis_bits))
-        throw Error("uniform_sampling", "the cloud spans more than 2^21 cubes of " + std::to_string(radius) +
+        throw Error("uniform_sampling", "the cloud spans more than 2^21 cubes of " + format_number(radius) +
                                             " m on one axis; use a larger radius");
     // One pass in ascending index order (the order PCL visits a cube's points in), keeping per cube
     // the point nearest its centre, the first of equals: the cubes numbered as met, not a sort of

@@ -1,6 +1,7 @@
 #include "mfpc/recognition/recognize.hpp"
 
 #include <chrono>
+#include <exception>
 #include <optional>
 #include <vector>
 
@@ -73,7 +74,27 @@ RecognitionResult recognize(const Model& model, const PointCloud& scene, const R
         }
         feature_timings.normals_ms = elapsed_ms(t);
     };
-    tbb::parallel_invoke(foveate_and_sample, index_scene);
+    // When both fail (a far outlier stops both), the error told is the first stage's whatever the
+    // threads: the one a serial run meets first.
+    std::exception_ptr sample_error;
+    std::exception_ptr index_error;
+    tbb::parallel_invoke(
+        [&] {
+            try {
+                foveate_and_sample();
+            } catch (...) {
+                sample_error = std::current_exception();
+            }
+        },
+        [&] {
+            try {
+                index_scene();
+            } catch (...) {
+                index_error = std::current_exception();
+            }
+        });
+    if (sample_error) std::rethrow_exception(sample_error);
+    if (index_error) std::rethrow_exception(index_error);
     result.counts.scene_points_used = used->size();
     result.counts.scene_points_foveated = foveating ? foveated.points_before_downsampling : scene.size();
     result.counts.redundant_points = foveated.redundant_points;

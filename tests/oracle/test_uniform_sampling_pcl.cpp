@@ -1,11 +1,14 @@
 #include <algorithm>
 #include <iostream>
+#include <limits>
+#include <string>
 #include <tuple>
 #include <vector>
 
 #include <gtest/gtest.h>
 #include <pcl/filters/uniform_sampling.h>
 
+#include "mfpc/core/error.hpp"
 #include "mfpc/kernels/uniform_sampling.hpp"
 #include "oracle_support.hpp"
 #include "test_support.hpp"
@@ -49,6 +52,22 @@ TEST(UniformSamplingOracle, ModelSelectionIsPcls)
 {
     MFPC_SHARED_FILE_OR_SKIP(path, "milk.pcd");
     for (float radius : {0.01f, 0.005f, 0.0021f}) expect_same_selection(path, radius);
+}
+
+// Cube numbers beyond int were an undefined conversion (PCL's too), which once sized a table from
+// garbage: a point that far out, or not finite, is named instead.
+TEST(UniformSampling, FarOrNonFinitePointsAreNamed)
+{
+    for (const float far : {1e20f, std::numeric_limits<float>::quiet_NaN(), -1e12f}) {
+        std::vector<Point> points = {{0.0f, 0.0f, 0.0f}, {0.01f, 0.0f, 0.0f}, {0.0f, far, 0.0f}, {far, 0.0f, 1.0f}};
+        try {
+            uniform_sampling(points, 0.01f);
+            ADD_FAILURE() << far << " was taken";
+        } catch (const Error& error) {
+            EXPECT_EQ(std::string(error.what()),
+                      "uniform_sampling: point 2 is not finite or lies more than 2^30 cubes of 0.01 m from the origin");
+        }
+    }
 }
 
 }  // namespace

@@ -54,6 +54,8 @@ TEST(CliSynth, BadInputIsOneLine)
                           "broken mesh");
     expect_one_line_error(run("synth --objects 0 --distractors 0" + out), 1, "nothing to place");
     expect_one_line_error(run("synth --max-incidence 120" + out), 1, "bad sensor");
+    // A focal length of 1e-20 pixels once sent rays Embree stops on (an abort): 170 degrees at most.
+    expect_one_line_error(run("synth --resolution 64x48 --focal 1e-20" + out), 1, "field of view near 180 degrees");
     expect_one_line_error(run("synth --min-range 5 --max-range 4" + out), 1, "empty range");
     expect_one_line_error(run("synth --model-spacing 0.5" + out), 1, "coarse model spacing");
     expect_one_line_error(run("synth -o " + quoted(dir.write("a_file", "x"))), 1, "output is a file");

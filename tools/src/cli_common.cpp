@@ -8,14 +8,19 @@
 
 namespace mfpc::cli {
 
+std::string json_text(const nlohmann::ordered_json& document)
+{
+    return document.dump(2, ' ', false, nlohmann::ordered_json::error_handler_t::replace) + '\n';
+}
+
 void write_json(const GlobalOptions& global, const nlohmann::ordered_json& result)
 {
     if (global.json_path.empty()) return;
     if (global.json_path == "-") {
-        std::cout << result.dump(2) << '\n';
+        std::cout << json_text(result);
         return;
     }
-    write_file_atomically(global.json_path, [&](std::ofstream& out) { out << result.dump(2) << '\n'; });
+    write_file_atomically(global.json_path, [&](std::ofstream& out) { out << json_text(result); });
 }
 
 void warn(const std::string& message) { std::cerr << "mfpc: warning: " << message << '\n'; }

@@ -21,6 +21,11 @@ struct GlobalOptions {
 // True when the human-readable output should go to stdout (it yields stdout to --json -).
 inline bool print_table(const GlobalOptions& global) { return !global.quiet && global.json_path != "-"; }
 
+// The document as indented JSON text with a final newline. Strings that are not UTF-8 (a file name
+// in another encoding, which a file system allows) get U+FFFD for their bad bytes instead of
+// failing the whole write after the work is done.
+std::string json_text(const nlohmann::ordered_json& document);
+
 // Writes the machine-readable result: to stdout for "-", else atomically to the file.
 void write_json(const GlobalOptions& global, const nlohmann::ordered_json& result);
 

@@ -1,3 +1,5 @@
+#include <cmath>
+#include <cstdlib>
 #include <filesystem>
 #include <iostream>
 #include <optional>
@@ -9,6 +11,7 @@
 #include "mfpc/core/cloud_io.hpp"
 #include "mfpc/core/error.hpp"
 #include "mfpc/core/foveation_config.hpp"
+#include "mfpc/index/point_index.hpp"
 #include "mfpc/kernels/foveate.hpp"
 #include "mfpc/tools/procedural_scene.hpp"
 
@@ -229,7 +232,15 @@ void add_foveate_command(CLI::App& app, const GlobalOptions& global)
                         "Also write one PCD per region (structureL_levelK.pcd) into DIR")
         ->type_name("DIR");
     command->add_option("--index-voxel", options->index_voxel, "Voxel size of the sparse index (metres)")
-        ->check(CLI::PositiveNumber)
+        ->check(CLI::Validator(
+            [](std::string& text) {
+                // A number at least the smallest voxel OpenVDB's transforms take (NaN fails the test).
+                const double value = std::strtod(text.c_str(), nullptr);
+                return value >= double(min_index_voxel_size) && std::isfinite(value)
+                           ? std::string()
+                           : "must be a number of at least " + format_number(min_index_voxel_size) + " (metres)";
+            },
+            "SIZE"))
         ->capture_default_str();
     command->callback([options, &global] { run_foveate(*options, global); });
 }

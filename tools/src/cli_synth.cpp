@@ -135,7 +135,8 @@ void add_synth_command(CLI::App& app, const GlobalOptions& global)
                         "Comma-separated distractor shapes (default: the built-ins other than --object)");
     command->add_option("--up", settings.up, "Up axis of a .pcd object in its own frame: x, -x, y, -y, z, -z")
         ->capture_default_str();
-    command->add_option("--focal", settings.sensor.focal_length, "Focal length in pixels (0: 525 scaled by width/640)")
+    command->add_option("--focal", settings.sensor.focal_length,
+                        "Focal length in pixels (0: 525 scaled by width/640; a field of view of 170 degrees at most)")
         ->capture_default_str();
     command->add_option("--noise", settings.sensor.noise_at_1m, "Depth noise sigma at 1 m in metres, growing with z^2 (0: none)")
         ->capture_default_str();

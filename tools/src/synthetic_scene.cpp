@@ -71,7 +71,10 @@ nlohmann::ordered_json pose_json(const Pose& pose)
 
 void write_json_file(const std::filesystem::path& path, const nlohmann::ordered_json& json)
 {
-    write_file_atomically(path, [&](std::ofstream& out) { out << json.dump(2) << '\n'; });
+    // File names in the document may not be UTF-8: their bad bytes become U+FFFD, not an exception.
+    write_file_atomically(path, [&](std::ofstream& out) {
+        out << json.dump(2, ' ', false, nlohmann::ordered_json::error_handler_t::replace) << '\n';
+    });
 }
 
 }  // namespace

@@ -1,5 +1,6 @@
 #include "mfpc/tools/virtual_scanner.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <limits>
 #include <numbers>
@@ -33,6 +34,15 @@ void check_sensor(const SensorParams& sensor)
     }
     if (!(sensor.focal_length >= 0) || !std::isfinite(sensor.focal_length))
         fail("focal_length", "must be positive (or 0 for the Kinect's field of view)");
+    // A field of view near 180 degrees sends rays along the image plane (directions of 1e17 and
+    // more stop Embree outright) and images nothing a depth sensor could: 170 degrees at most.
+    const float half_side = 0.5f * float(std::max(sensor.width, sensor.height));
+    const float widest = half_side / std::tan(85.0f * std::numbers::pi_v<float> / 180.0f);
+    if (sensor.focal_length > 0 && sensor.focal_length < widest) {
+        fail("focal_length", format_number(sensor.focal_length) + " pixels gives a field of view above 170 degrees at " +
+                                 std::to_string(sensor.width) + "x" + std::to_string(sensor.height) +
+                                 ": use at least " + format_number(widest) + " (or 0 for the Kinect's)");
+    }
     if (!(sensor.noise_at_1m >= 0) || !std::isfinite(sensor.noise_at_1m)) fail("noise_at_1m", "must be >= 0");
     if (!(sensor.baseline > 0) || !std::isfinite(sensor.baseline)) fail("baseline", "must be positive");
     if (sensor.disparity_subpixel < 0) fail("disparity_subpixel", "must be >= 0 (0: no quantization)");

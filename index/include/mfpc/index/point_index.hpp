@@ -12,12 +12,16 @@
 
 namespace mfpc {
 
+// The smallest index voxel (metres): 0.1 mm, ten times OpenVDB's own limit.
+inline constexpr float min_index_voxel_size = 1e-4f;
+
 struct PointIndexParams {
     // Edge of one index voxel (metres). Points are bucketed into voxels, voxels into leaves of
     // 8x8x8 voxels (OpenVDB's PointIndexGrid). Labelling decides whole leaves, then whole voxels,
     // and tests single points only in voxels that straddle a box face; smaller voxels mean fewer
     // such points but more voxels to decide and a slower build. Voxels are aligned with the world
-    // origin; downsampling is fastest when the densities d_k are multiples of this size.
+    // origin; downsampling is fastest when the densities d_k are multiples of this size. At least
+    // min_index_voxel_size.
     float voxel_size = 0.005f;
 };
 
