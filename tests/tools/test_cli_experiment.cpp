@@ -29,14 +29,17 @@ TEST(CliExperiment, WritesEveryReportFile)
                                                          configs + "milk_pair_two.json\"},"
                                                          "{\"name\": \"MFPC\", \"mode\": \"mfpc\", \"fovea\": \"" +
                                                          configs + "milk_pair_two.json\"}]}");
-    const Result r = run("experiment --config " + quoted(config) + " -o " + quoted(dir / "report"));
+    // A quote in the output folder's name once ended a string in the shell command that ran
+    // gnuplot (and in its script): names reach neither now.
+    const std::filesystem::path out = dir / "it's a report";
+    const Result r = run("experiment --config " + quoted(config) + " -o \"" + out.string() + "\"");
     ASSERT_EQ(r.exit_code, 0) << r.err;
     for (const char* file : {"report.json", "report.csv", "report.md", "strategy_1.png", "strategy_3.png",
                              "fig11a_points.png", "fig11d_correct_correspondences.png", "fig12a_precision.png",
                              "fig12d_time.png"})
-        EXPECT_TRUE(std::filesystem::exists(dir / "report" / file)) << file;
+        EXPECT_TRUE(std::filesystem::exists(out / file)) << file;
 
-    const auto report = nlohmann::json::parse(slurp(dir / "report" / "report.json"));
+    const auto report = nlohmann::json::parse(slurp(out / "report.json"));
     ASSERT_EQ(report["strategies"].size(), 3u);
     EXPECT_EQ(report["reference"], "MFPC");
     for (const auto& strategy : report["strategies"]) {
@@ -50,7 +53,7 @@ TEST(CliExperiment, WritesEveryReportFile)
     const auto& mfpc = report["strategies"][2]["counts"];
     EXPECT_EQ(mfpc["points_before_downsampling"].get<long>(),
               raw["points_before_downsampling"].get<long>() - raw["redundant_points"].get<long>());
-    EXPECT_NE(slurp(dir / "report" / "report.md").find("| MFPC |"), std::string::npos);
+    EXPECT_NE(slurp(out / "report.md").find("| MFPC |"), std::string::npos);
     EXPECT_GT(std::count(r.out.begin(), r.out.end(), '\n'), 10);  // the tables on stdout
 }
 
@@ -64,6 +67,12 @@ TEST(CliExperiment, BadConfigIsOneLine)
                               quoted(dir / "r")),
                           1, "bad config");
     expect_one_line_error(run("experiment --runs 0 --config x.json -o " + quoted(dir / "r")), 2, "zero runs");
+    expect_one_line_error(run("experiment --config " +
+                              quoted(dir.write("pipe.json", "{\"model\": \"m.pcd\", \"scene\": \"s.pcd\", "
+                                                            "\"ground_truth\": \"g.json\", \"strategies\": "
+                                                            "[{\"name\": \"a|b\", \"mode\": \"none\"}]}")) +
+                              " -o " + quoted(dir / "r")),
+                          1, "a '|' in a strategy name");
 }
 
 }  // namespace

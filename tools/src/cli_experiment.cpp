@@ -1,5 +1,9 @@
+#include <fcntl.h>
+#include <spawn.h>
+#include <sys/wait.h>
 #include <unistd.h>
 
+#include <cerrno>
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
@@ -90,14 +94,45 @@ std::string csv_row(const std::vector<std::string>& cells)
 
 std::string fixed(double value, int decimals) { return std::isfinite(value) ? format_fixed(value, decimals) : "n/a"; }
 
-// The charts (Figures 11 and 12 of the paper, one metric each) with gnuplot: bars per strategy;
-// the time chart with the 95% intervals as error bars.
-void write_charts(const std::filesystem::path& directory, const std::vector<StrategyOutcome>& outcomes,
-                  const std::vector<Summary>& totals)
+extern "C" char** environ;
+
+// Runs gnuplot on `script` in `directory`, its stderr into `log` there: spawned directly, with no
+// shell, so no file name can become a command. Returns its exit status, or -1 when it could not
+// be started (127: not found).
+int run_gnuplot(const std::filesystem::path& directory, const char* script, const char* log)
+{
+    posix_spawn_file_actions_t actions;
+    posix_spawn_file_actions_init(&actions);
+    posix_spawn_file_actions_addchdir_np(&actions, directory.c_str());
+    posix_spawn_file_actions_addopen(&actions, 1, "/dev/null", O_WRONLY, 0);
+    posix_spawn_file_actions_addopen(&actions, 2, log, O_WRONLY | O_CREAT | O_TRUNC, 0644);
+    char* argv[] = {const_cast<char*>("gnuplot"), const_cast<char*>(script), nullptr};
+    pid_t child = 0;
+    const int spawned = posix_spawnp(&child, "gnuplot", &actions, nullptr, argv, environ);
+    posix_spawn_file_actions_destroy(&actions);
+    if (spawned != 0) return -1;
+    int status = 0;
+    while (waitpid(child, &status, 0) < 0) {
+        if (errno != EINTR) return -1;
+    }
+    return WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+}
+
+// Checked before the runs, so a missing gnuplot is told at once, not after minutes of work.
+void require_gnuplot()
 {
     if (std::system("command -v gnuplot >/dev/null 2>&1") != 0)
         throw Error("experiment", "the charts need gnuplot: install the Debian package gnuplot-nox "
                                   "(scripts/install-deps.sh does), or pass --no-charts");
+}
+
+// The charts (Figures 11 and 12 of the paper, one metric each) with gnuplot: bars per strategy;
+// the time chart with the 95% intervals as error bars. gnuplot runs in `directory` and the script
+// names only the fixed file names there: the directory's own name (any characters) never enters
+// the script, where a quote could end a string and start a gnuplot command.
+void write_charts(const std::filesystem::path& directory, const std::vector<StrategyOutcome>& outcomes,
+                  const std::vector<Summary>& totals)
+{
     const std::filesystem::path data = directory / "charts.dat";
     write_file_atomically(data, [&](std::ofstream& out) {
         out << "# strategy points keypoints correspondences correct precision sensitivity true false time low high\n";
@@ -133,22 +168,20 @@ void write_charts(const std::filesystem::path& directory, const std::vector<Stra
                "set style fill solid 0.8 border -1\nset boxwidth 0.6\nset grid ytics\nset yrange [0:*]\n"
                "set xtics rotate by -30 left\nunset key\n";
         for (const Chart& chart : charts) {
-            out << "set output '" << (directory / chart.file).string() << "'\nset title '" << chart.title << "'\n";
+            out << "set output '" << chart.file << "'\nset title '" << chart.title << "'\n";
             if (chart.column == 8) {
-                out << "set key outside right top\nset boxwidth 0.35\nplot '" << data.string()
-                    << "' using ($0-0.18):8:xtic(1) with boxes lc rgb '#2a6db0' title 'true', '' using ($0+0.18):9 "
-                       "with boxes lc rgb '#a9c6e8' title 'false'\nunset key\nset boxwidth 0.6\n";
+                out << "set key outside right top\nset boxwidth 0.35\n"
+                       "plot 'charts.dat' using ($0-0.18):8:xtic(1) with boxes lc rgb '#2a6db0' title 'true', "
+                       "'' using ($0+0.18):9 with boxes lc rgb '#a9c6e8' title 'false'\nunset key\nset boxwidth 0.6\n";
             } else if (chart.column == 10) {
-                out << "plot '" << data.string()
-                    << "' using 0:10:xtic(1) with boxes lc rgb '#2a6db0', '' using 0:10:11:12 with yerrorbars lc rgb "
-                       "'black' pt -1\n";
+                out << "plot 'charts.dat' using 0:10:xtic(1) with boxes lc rgb '#2a6db0', "
+                       "'' using 0:10:11:12 with yerrorbars lc rgb 'black' pt -1\n";
             } else {
-                out << "plot '" << data.string() << "' using 0:" << chart.column << ":xtic(1) with boxes lc rgb '#2a6db0'\n";
+                out << "plot 'charts.dat' using 0:" << chart.column << ":xtic(1) with boxes lc rgb '#2a6db0'\n";
             }
         }
     });
-    const std::string command = "gnuplot '" + script.string() + "' 2>'" + (directory / "charts.log").string() + "'";
-    if (std::system(command.c_str()) != 0)
+    if (run_gnuplot(directory, "charts.gnuplot", "charts.log") != 0)
         throw Error("experiment", "gnuplot failed drawing the charts (see " + (directory / "charts.log").string() + ")");
 }
 
@@ -157,6 +190,7 @@ void run_experiment_command(const ExperimentOptions& options, const GlobalOption
     ExperimentConfig config = read_experiment_config(options.config);
     if (options.runs > 0) config.runs = options.runs;
     const std::filesystem::path directory(options.output);
+    if (!options.no_charts) require_gnuplot();
     prepare_output_directory(directory);
 
     Stopwatch clock;
@@ -229,7 +263,7 @@ void run_experiment_command(const ExperimentOptions& options, const GlobalOption
         {"model_cached", cached},
         {"params", nlohmann::ordered_json::parse(to_json(config.params))},
         {"strategies", strategies}};
-    write_file_atomically(directory / "report.json", [&](std::ofstream& out) { out << report.dump(2) << '\n'; });
+    write_file_atomically(directory / "report.json", [&](std::ofstream& out) { out << json_text(report); });
 
     // report.csv: one row per strategy.
     write_file_atomically(directory / "report.csv", [&](std::ofstream& out) {
