@@ -322,16 +322,21 @@ std::vector<Instance> refine_and_verify(std::vector<Instance> instances, std::sp
     std::vector<std::uint8_t> keep(accepted.size(), 1);
     if (verify.enabled && verify.merge) {
         // Refined, two accepted instances may still overlap (the later started elsewhere and slid
-        // onto the earlier's object): the better fit (then the earlier) stays.
-        std::vector<std::size_t> by_fitness(accepted.size());
-        for (std::size_t i = 0; i < by_fitness.size(); ++i) by_fitness[i] = i;
-        std::stable_sort(by_fitness.begin(), by_fitness.end(), [&](std::size_t a, std::size_t b) {
-            return instances[accepted[a]].fitness > instances[accepted[b]].fitness;
+        // onto the earlier's object): the one explaining more of the model's facing side stays
+        // (coverage, then fitness, then the earlier). Not fitness first: where part of the object
+        // has no depth (cut by the frame, or no return), the true pose counts those points as
+        // visible and unmatched, while a pose slid off them scores a higher fitness on less.
+        std::vector<std::size_t> by_coverage(accepted.size());
+        for (std::size_t i = 0; i < by_coverage.size(); ++i) by_coverage[i] = i;
+        std::stable_sort(by_coverage.begin(), by_coverage.end(), [&](std::size_t a, std::size_t b) {
+            const Instance& x = instances[accepted[a]];
+            const Instance& y = instances[accepted[b]];
+            return x.coverage != y.coverage ? x.coverage > y.coverage : x.fitness > y.fitness;
         });
-        for (std::size_t i = 0; i < by_fitness.size(); ++i)
-            for (std::size_t j = 0; j < i && keep[by_fitness[i]]; ++j)
-                if (keep[by_fitness[j]] && overlaps(claimed_points[by_fitness[i]], *claimed[by_fitness[j]], verify))
-                    keep[by_fitness[i]] = 0;
+        for (std::size_t i = 0; i < by_coverage.size(); ++i)
+            for (std::size_t j = 0; j < i && keep[by_coverage[i]]; ++j)
+                if (keep[by_coverage[j]] && overlaps(claimed_points[by_coverage[i]], *claimed[by_coverage[j]], verify))
+                    keep[by_coverage[i]] = 0;
     }
     std::vector<Instance> verified;
     for (std::size_t i = 0; i < accepted.size(); ++i)
