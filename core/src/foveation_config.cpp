@@ -321,22 +321,10 @@ std::string json_fovea_center(const FoveatedStructure& structure)
 FoveationConfig parse_foveation_config(std::string_view json_text, const std::string& source,
                                        FoveaPolicy policy, std::vector<std::string>* warnings)
 {
-    // Duplicate keys, deep nesting and syntax errors, named the way every JSON reader names them.
+    // Duplicate keys, deep nesting and syntax errors, named the way every JSON reader names them;
+    // the text is then known to parse.
     check_json_text(json_text, source);
-    json root;
-    try {
-        root = json::parse(json_text.begin(), json_text.end());
-    } catch (const json::exception& error) {
-        // A syntax error (parse_error) or a number beyond double (out_of_range, "1e999").
-        // nlohmann's message reads "[json.exception.parse_error.101] parse error at line 3, ...":
-        // keep the part a person needs.
-        std::string message = error.what();
-        if (const auto start = message.find("] "); start != std::string::npos) {
-            message.erase(0, start + 2);
-        }
-        throw Error(source, "invalid JSON: " + message);
-    }
-    return Reader(source, policy, warnings).read(root);
+    return Reader(source, policy, warnings).read(json::parse(json_text.begin(), json_text.end()));
 }
 
 FoveationConfig read_foveation_config(const std::filesystem::path& path, FoveaPolicy policy,

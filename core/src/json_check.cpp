@@ -17,44 +17,41 @@ namespace {
 
 using nlohmann::json;
 
-// Rejects duplicate keys while parsing (nlohmann would silently keep the last one) and names them
-// by their key path; stops at the depth limit before the parser builds anything deeper. The
-// callback sees the document as a stream of events; `frames` is the stack of open objects and
-// arrays, enough to spell the path of the value being read.
-class JsonTextCheck {
+// Reads the document as events only (nlohmann's SAX interface): no tree is built, so the check
+// costs no memory beyond the open containers. Rejects duplicate keys (nlohmann's own parser keeps
+// the last one silently) and names them by their key path; stops at the depth limit. `frames` is
+// the stack of open objects and arrays, enough to spell the path of the value being read.
+class JsonTextCheck : public nlohmann::json_sax<json> {
 public:
     explicit JsonTextCheck(const std::string& source) : source_(source) {}
 
-    bool operator()(int depth, json::parse_event_t event, json& parsed)
+    bool null() override { return value(); }
+    bool boolean(bool) override { return value(); }
+    bool number_integer(number_integer_t) override { return value(); }
+    bool number_unsigned(number_unsigned_t) override { return value(); }
+    bool number_float(number_float_t, const string_t&) override { return value(); }
+    bool string(string_t&) override { return value(); }
+    bool binary(binary_t&) override { return value(); }
+    bool start_object(std::size_t) override { return open(false); }
+    bool start_array(std::size_t) override { return open(true); }
+    bool end_object() override { return close(); }
+    bool end_array() override { return close(); }
+
+    bool key(string_t& key) override
     {
-        switch (event) {
-        case json::parse_event_t::object_start:
-        case json::parse_event_t::array_start:
-            // `depth` counts the containers around this one: the top level is 0.
-            if (depth >= json_depth_limit) {
-                throw Error(source_, "invalid JSON: nested deeper than " + std::to_string(json_depth_limit) +
-                                         " levels");
-            }
-            enter_element();
-            frames_.push_back({event == json::parse_event_t::array_start, 0, {}, {}});
-            break;
-        case json::parse_event_t::object_end:
-        case json::parse_event_t::array_end:
-            frames_.pop_back();
-            break;
-        case json::parse_event_t::key: {
-            Frame& frame = frames_.back();
-            frame.key = parsed.get<std::string>();
-            if (!frame.seen.insert(frame.key).second) {
-                throw Error(source_ + ": " + path(), "duplicate key");
-            }
-            break;
-        }
-        case json::parse_event_t::value:
-            enter_element();
-            break;
-        }
+        Frame& frame = frames_.back();
+        frame.key = key;
+        if (!frame.seen.insert(frame.key).second) throw Error(source_ + ": " + path(), "duplicate key");
         return true;
+    }
+
+    // A syntax error, or a number beyond double ("1e999"): nlohmann's message reads
+    // "[json.exception.parse_error.101] parse error at line 3, ...": keep the part a person needs.
+    bool parse_error(std::size_t, const std::string&, const nlohmann::detail::exception& error) override
+    {
+        std::string message = error.what();
+        if (const auto start = message.find("] "); start != std::string::npos) message.erase(0, start + 2);
+        throw Error(source_, "invalid JSON: " + message);
     }
 
 private:
@@ -65,9 +62,27 @@ private:
         std::set<std::string> seen;
     };
 
-    void enter_element()
+    bool value()
     {
         if (!frames_.empty() && frames_.back().array) ++frames_.back().count;
+        return true;
+    }
+
+    bool open(bool array)
+    {
+        // The containers already open around this one: the top level is at depth 0.
+        if (frames_.size() >= std::size_t(json_depth_limit)) {
+            throw Error(source_, "invalid JSON: nested deeper than " + std::to_string(json_depth_limit) + " levels");
+        }
+        value();
+        frames_.push_back({array, 0, {}, {}});
+        return true;
+    }
+
+    bool close()
+    {
+        frames_.pop_back();
+        return true;
     }
 
     std::string path() const
@@ -92,20 +107,8 @@ private:
 
 void check_json_text(std::string_view json_text, const std::string& source)
 {
-    try {
-        // The parsed document is thrown away: the readers parse again into their own tree. Reading
-        // twice costs little for these small files and keeps nlohmann out of the interface.
-        [[maybe_unused]] const json document = json::parse(json_text.begin(), json_text.end(), JsonTextCheck(source));
-    } catch (const json::exception& error) {
-        // A syntax error (parse_error) or a number beyond double (out_of_range, "1e999").
-        // nlohmann's message reads "[json.exception.parse_error.101] parse error at line 3, ...":
-        // keep the part a person needs.
-        std::string message = error.what();
-        if (const auto start = message.find("] "); start != std::string::npos) {
-            message.erase(0, start + 2);
-        }
-        throw Error(source, "invalid JSON: " + message);
-    }
+    JsonTextCheck check(source);
+    json::sax_parse(json_text.begin(), json_text.end(), &check);
 }
 
 std::string json_key_text(const std::string& key)

@@ -97,18 +97,10 @@ ExperimentConfig read_experiment_config(const std::filesystem::path& path)
 {
     const std::string file = path.string();
     const std::string text = read_text_file(path);
-    // Duplicate keys, deep nesting and syntax errors, named the way every JSON reader names them.
+    // Duplicate keys, deep nesting and syntax errors, named the way every JSON reader names them;
+    // the text is then known to parse.
     check_json_text(text, file);
-    json root;
-    try {
-        root = json::parse(text);
-    } catch (const json::exception& error) {
-        // Not reached (check_json_text has parsed this very text); kept so that a failure here is
-        // still an mfpc::Error, without nlohmann's "[json.exception.parse_error.101] " prefix.
-        const std::string message = error.what();
-        const auto start = message.find("] ");
-        throw Error(file, "invalid JSON: " + (start == std::string::npos ? message : message.substr(start + 2)));
-    }
+    const json root = json::parse(text);
     const std::string top = file + ": ";
     check_keys(root, top, {"model", "scene", "ground_truth", "params", "runs", "reference", "strategies"});
 

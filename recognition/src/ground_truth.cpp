@@ -21,14 +21,6 @@ namespace {
 
 using nlohmann::json;
 
-// nlohmann's message without its "[json.exception.parse_error.101] " prefix, the part a person
-// needs (the same as the foveation config reader reports; that helper is private to core).
-std::string without_prefix(const std::string& message)
-{
-    const auto start = message.find("] ");
-    return start == std::string::npos ? message : message.substr(start + 2);
-}
-
 // A key of the file as it goes into a key path: a plain name as it is, anything else JSON-escaped
 // in quotes (at most 60 bytes of it), so that a key holding a newline cannot make a message two
 // lines, nor a key holding '.' or ": " pose as a path. (The foveation config reader does the
@@ -125,16 +117,10 @@ GroundTruth read_ground_truth(const std::filesystem::path& path)
 {
     const std::string file = path.string();
     const std::string text = read_text_file(path);
-    // Duplicate keys, deep nesting and syntax errors, named the way every JSON reader names them.
+    // Duplicate keys, deep nesting and syntax errors, named the way every JSON reader names them;
+    // the text is then known to parse.
     check_json_text(text, file);
-    json root;
-    try {
-        root = json::parse(text);
-    } catch (const json::exception& error) {
-        // Not reached (check_json_text has parsed this very text); kept so that a failure here is
-        // still an mfpc::Error.
-        throw Error(file, "invalid JSON: " + without_prefix(error.what()));
-    }
+    const json root = json::parse(text);
     if (!root.is_object()) throw Error(file, "ground truth must be a JSON object");
     check_keys(root, file + ": ", {"model", "instances"});
 

@@ -186,18 +186,9 @@ void check_recognition_params(const RecognitionParams& p, const std::string& sou
 RecognitionParams parse_recognition_params(std::string_view json_text, const std::string& source)
 {
     // Duplicate keys, deep nesting and syntax errors, named the way every JSON reader names them
-    // (nlohmann alone keeps the last of two equal keys and reports errors with its own prefix).
+    // (nlohmann alone keeps the last of two equal keys); the text is then known to parse.
     check_json_text(json_text, source);
-    json root;
-    try {
-        root = json::parse(json_text);
-    } catch (const json::exception& error) {
-        // Not reached (check_json_text has parsed this very text); kept so that a failure here is
-        // still an mfpc::Error, without nlohmann's "[json.exception.parse_error.101] " prefix.
-        const std::string message = error.what();
-        const auto start = message.find("] ");
-        throw Error(source, "invalid JSON: " + (start == std::string::npos ? message : message.substr(start + 2)));
-    }
+    const json root = json::parse(json_text);
     RecognitionParams p;
     {
         ObjectReader r(root, "", source);

@@ -78,21 +78,16 @@ RecognitionResult recognize(const Model& model, const PointCloud& scene, const R
     // threads: the one a serial run meets first.
     std::exception_ptr sample_error;
     std::exception_ptr index_error;
-    tbb::parallel_invoke(
-        [&] {
+    auto keeping_error = [](auto& stage, std::exception_ptr& error) {
+        return [&stage, &error] {
             try {
-                foveate_and_sample();
+                stage();
             } catch (...) {
-                sample_error = std::current_exception();
+                error = std::current_exception();
             }
-        },
-        [&] {
-            try {
-                index_scene();
-            } catch (...) {
-                index_error = std::current_exception();
-            }
-        });
+        };
+    };
+    tbb::parallel_invoke(keeping_error(foveate_and_sample, sample_error), keeping_error(index_scene, index_error));
     if (sample_error) std::rethrow_exception(sample_error);
     if (index_error) std::rethrow_exception(index_error);
     result.counts.scene_points_used = used->size();

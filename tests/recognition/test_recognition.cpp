@@ -214,54 +214,49 @@ TEST(HoughGrouping, FindsPlantedInstancesAmongScatteredVotes)
     EXPECT_EQ(instances[0].correspondences.size(), 60u);
 }
 
+// The error parse_recognition_params gives for `text` read as "p.json", or "no error".
+std::string params_error(const std::string& text)
+{
+    try {
+        parse_recognition_params(text, "p.json");
+    } catch (const Error& e) {
+        return std::string(e.what());
+    }
+    return std::string("no error");
+}
+
 TEST(RecognitionParams, DefaultsRoundTripAndBadValuesAreNamed)
 {
     const RecognitionParams defaults;
     const RecognitionParams parsed = parse_recognition_params(to_json(defaults), "defaults");
     EXPECT_EQ(to_json(parsed), to_json(defaults));
-    const auto message = [](const char* text) {
-        try {
-            parse_recognition_params(text, "p.json");
-        } catch (const Error& e) {
-            return std::string(e.what());
-        }
-        return std::string("no error");
-    };
-    EXPECT_EQ(message(R"({"scene": {"shot_radius": 0}})"), "p.json: scene.shot_radius: must be a positive number, got 0.000000");
-    EXPECT_NE(message(R"({"scene": {"shot_radus": 0.02}})").find("p.json: scene.shot_radus: unknown key"), std::string::npos);
-    EXPECT_NE(message(R"({"match_k": 2.5})").find("p.json: match_k: must be an integer"), std::string::npos);
-    EXPECT_NE(message(R"({"grouping": "ransac"})").find("must be one of hough|gc"), std::string::npos);
-    EXPECT_NE(message(R"({"match_search": "brute"})").find("p.json: match_search: must be one of scan|kdtree|randomized"),
+    EXPECT_EQ(params_error(R"({"scene": {"shot_radius": 0}})"), "p.json: scene.shot_radius: must be a positive number, got 0.000000");
+    EXPECT_NE(params_error(R"({"scene": {"shot_radus": 0.02}})").find("p.json: scene.shot_radus: unknown key"), std::string::npos);
+    EXPECT_NE(params_error(R"({"match_k": 2.5})").find("p.json: match_k: must be an integer"), std::string::npos);
+    EXPECT_NE(params_error(R"({"grouping": "ransac"})").find("must be one of hough|gc"), std::string::npos);
+    EXPECT_NE(params_error(R"({"match_search": "brute"})").find("p.json: match_search: must be one of scan|kdtree|randomized"),
               std::string::npos);
-    EXPECT_NE(message(R"({"match_exact": true})").find("p.json: match_exact: renamed match_search"), std::string::npos);
+    EXPECT_NE(params_error(R"({"match_exact": true})").find("p.json: match_exact: renamed match_search"), std::string::npos);
     EXPECT_EQ(parse_recognition_params(R"({"match_search": "kdtree"})", "p.json").match.search, MatchSearch::kdtree);
-    EXPECT_NE(message(R"({"verify": {"min_coverage": 2}})").find("verify.min_coverage"), std::string::npos);
-    EXPECT_NE(message("[1, 2]").find("must be a JSON object"), std::string::npos);
-    EXPECT_NE(message("{").find("invalid JSON"), std::string::npos);
+    EXPECT_NE(params_error(R"({"verify": {"min_coverage": 2}})").find("verify.min_coverage"), std::string::npos);
+    EXPECT_NE(params_error("[1, 2]").find("must be a JSON object"), std::string::npos);
+    EXPECT_NE(params_error("{").find("invalid JSON"), std::string::npos);
 }
 
 // Keys given twice and deep nesting are refused as every MFPC JSON reader refuses them
 // (check_json_text; its own tests are in tests/core); the RANSAC count is bounded like the others.
 TEST(RecognitionParams, RejectsDuplicateKeysDeepNestingAndEndlessRansac)
 {
-    const auto message = [](const std::string& text) {
-        try {
-            parse_recognition_params(text, "p.json");
-        } catch (const Error& e) {
-            return std::string(e.what());
-        }
-        return std::string("no error");
-    };
-    EXPECT_EQ(message(R"({"match_k": 5, "match_k": 6})"), "p.json: match_k: duplicate key");
-    EXPECT_EQ(message(R"({"refine": {"iterations": 5, "iterations": 6}})"), "p.json: refine.iterations: duplicate key");
-    EXPECT_EQ(message("{\"scene\": " + std::string(100, '[') + std::string(100, ']') + "}"),
+    EXPECT_EQ(params_error(R"({"match_k": 5, "match_k": 6})"), "p.json: match_k: duplicate key");
+    EXPECT_EQ(params_error(R"({"refine": {"iterations": 5, "iterations": 6}})"), "p.json: refine.iterations: duplicate key");
+    EXPECT_EQ(params_error("{\"scene\": " + std::string(100, '[') + std::string(100, ']') + "}"),
               "p.json: invalid JSON: nested deeper than 64 levels");
-    const std::string syntax = message("{\n");
+    const std::string syntax = params_error("{\n");
     EXPECT_EQ(syntax.rfind("p.json: invalid JSON: parse error at line 2", 0), 0u) << syntax;
 
-    EXPECT_EQ(message(R"({"ransac_iterations": 1000000000})"),
+    EXPECT_EQ(params_error(R"({"ransac_iterations": 1000000000})"),
               "p.json: ransac_iterations: must lie in 1..100000, got 1000000000");
-    EXPECT_EQ(message(R"({"ransac_iterations": 0})"), "p.json: ransac_iterations: must lie in 1..100000, got 0");
+    EXPECT_EQ(params_error(R"({"ransac_iterations": 0})"), "p.json: ransac_iterations: must lie in 1..100000, got 0");
     EXPECT_EQ(parse_recognition_params(R"({"ransac_iterations": 100000})", "p.json").grouping.ransac_iterations, 100000);
     EXPECT_EQ(parse_recognition_params(R"({"ransac_iterations": 1})", "p.json").grouping.ransac_iterations, 1);
 }

@@ -98,7 +98,7 @@ extern "C" char** environ;
 
 // Runs gnuplot on `script` in `directory`, its stderr into `log` there: spawned directly, with no
 // shell, so no file name can become a command. Returns its exit status, or -1 when it could not
-// be started (127: not found).
+// be started or did not exit.
 int run_gnuplot(const std::filesystem::path& directory, const char* script, const char* log)
 {
     posix_spawn_file_actions_t actions;
@@ -137,11 +137,9 @@ void write_charts(const std::filesystem::path& directory, const std::vector<Stra
     write_file_atomically(data, [&](std::ofstream& out) {
         out << "# strategy points keypoints correspondences correct precision sensitivity true false time low high\n";
         for (std::size_t i = 0; i < outcomes.size(); ++i) {
+            // The config reader refuses '"' and control characters in names, so quoting suffices.
             const StrategyOutcome& o = outcomes[i];
-            std::string name = o.name;
-            for (char& ch : name)
-                if (ch == '"') ch = '\'';
-            out << '"' << name << "\" " << o.counts.scene_points_used << ' ' << o.counts.scene_keypoints << ' '
+            out << '"' << o.name << "\" " << o.counts.scene_points_used << ' ' << o.counts.scene_keypoints << ' '
                 << o.counts.correspondences << ' ' << o.evaluation.correct_correspondences << ' '
                 << o.evaluation.correspondence_precision << ' ' << o.evaluation.correspondence_sensitivity << ' '
                 << o.evaluation.instances_true << ' ' << o.evaluation.instances_false << ' ' << totals[i].mean << ' '

@@ -53,16 +53,10 @@ Instances read_instances(const std::filesystem::path& path)
     std::stringstream stream;
     stream << in.rdbuf();
     const std::string text = stream.str();
-    // Duplicate keys, deep nesting and syntax errors, named the way every JSON reader names them.
+    // Duplicate keys, deep nesting and syntax errors, named the way every JSON reader names them;
+    // the text is then known to parse.
     check_json_text(text, where);
-    nlohmann::json json;
-    try {
-        json = nlohmann::json::parse(text);
-    } catch (const nlohmann::json::exception&) {
-        // Not reached (check_json_text has parsed this very text); kept so that a failure here is
-        // still an mfpc::Error.
-        throw Error(where, "not valid JSON (expected the --json output of `mfpc recognize`)");
-    }
+    nlohmann::json json = nlohmann::json::parse(text);
     if (!json.is_object()) throw Error(where, "not a recognize result: the top level is not an object");
     if (!json.contains("model") || !json["model"].is_string() || json["model"].get<std::string>().empty())
         throw Error(where + ": model", "missing or not a file name");
