@@ -493,6 +493,48 @@ TEST(Foveate, PointsExactlyOnBoxFaces)
     EXPECT_EQ(s.level_of(s.level_box(2).max), 2);
 }
 
+// Where a denser structure covers a face of a coarser one, the face cannot change any point's
+// region (redundancy treatment keeps the denser level on both sides of it): the labels still equal
+// the reference, and the points there come as whole index voxels, none tested one by one.
+TEST(Foveate, FacesUnderADenserFoveaAreNotTestedPointByPoint)
+{
+    FoveatedStructure coarse;  // level 2 box from x = 0.2667: that face crosses the dense fovea
+    coarse.outer_min = {0.0f, 0.0f, 0.0f};
+    coarse.outer_size = {1.0f, 1.0f, 1.0f};
+    coarse.fovea_size = {0.2f, 0.2f, 0.2f};
+    FoveatedStructure dense;  // fovea [0.25, 0.30] x [0.47, 0.53] x [0.49, 0.51], d_m = 2 mm
+    dense.outer_min = {0.2f, 0.42f, 0.44f};
+    dense.outer_size = {0.15f, 0.16f, 0.12f};
+    dense.fovea_size = {0.05f, 0.06f, 0.02f};
+    dense.fovea_offset = {0.0f, 0.0f, 0.0f};  // centred in its outer box
+    dense.density_outer = 0.01f;
+    dense.density_fovea = 0.002f;
+    ASSERT_LT(dense.level_box(3).min.x(), coarse.level_box(2).min.x());
+    ASSERT_GT(dense.level_box(3).max.x(), coarse.level_box(2).min.x());
+    // A plane of points on a 1 mm grid, half a millimetre off the 5 mm index voxels' faces (and so
+    // off the dense fovea's faces, which lie on them).
+    std::vector<Point> points;
+    for (int i = 0; i < 150; ++i) {
+        for (int j = 0; j < 100; ++j) {
+            points.emplace_back(0.2005f + 0.001f * float(i), 0.4505f + 0.001f * float(j), 0.5005f);
+        }
+    }
+    const std::vector<FoveatedStructure> structures{coarse, dense};
+    const PointIndex index(points, {0.005f});
+
+    const FoveationRegions treated = foveation_regions(index, structures, FoveationMode::mfpc);
+    EXPECT_EQ(labels_from(treated, points.size()), reference::reference_mfpc_labels(points, structures));
+    const FoveationRegions raw = foveation_regions(index, structures, FoveationMode::raw);
+    EXPECT_EQ(treated.redundant_points(), raw.members.size() - treated.members.size());
+
+    const int fovea = treated.region_id(1, 3);
+    ASSERT_GT(treated.offsets[std::size_t(fovea) + 1], treated.offsets[std::size_t(fovea)]);
+    const std::uint32_t first_run = treated.run_offsets[std::size_t(fovea)];
+    for (std::uint32_t r = first_run; r < treated.run_offsets[std::size_t(fovea) + 1]; ++r) {
+        EXPECT_TRUE(treated.runs[r].whole_voxels()) << "run " << r << " of the dense fovea is taken point by point";
+    }
+}
+
 TEST(Foveate, ModeNonePassesTheCloudThrough)
 {
     PointCloud cloud;
