@@ -390,10 +390,21 @@ std::vector<Emitted> label_runs(const PointIndex& index, const RegionTable& tabl
         std::vector<Reach> leaf_reach;
         std::vector<Reach> group_reach;
         std::vector<Reach> voxel_reach;
+        std::vector<Reach> chunk_reach;
+        const std::size_t leaf_begin = c * leaves_per_chunk;
         const std::size_t leaf_end = std::min(leaves.size(), (c + 1) * leaves_per_chunk);
-        for (std::size_t leaf = c * leaves_per_chunk; leaf < leaf_end; ++leaf) {
+        // Structures that miss the chunk's leaves altogether are dropped once for all of them: with
+        // 64 structures, narrowing every leaf against each was an eighth of labelling.
+        Box chunk_bounds = leaves[leaf_begin].bounds;
+        for (std::size_t leaf = leaf_begin + 1; leaf < leaf_end; ++leaf) {
+            chunk_bounds.min = chunk_bounds.min.cwiseMin(leaves[leaf].bounds.min);
+            chunk_bounds.max = chunk_bounds.max.cwiseMax(leaves[leaf].bounds.max);
+        }
+        narrow(all, chunk_bounds, chunk_reach);
+        if (chunk_reach.empty()) return;
+        for (std::size_t leaf = leaf_begin; leaf < leaf_end; ++leaf) {
             const PointIndexLeaf& l = leaves[leaf];
-            const bool leaf_mixed = narrow(all, l.bounds, leaf_reach);
+            const bool leaf_mixed = narrow(chunk_reach, l.bounds, leaf_reach);
             if (leaf_reach.empty()) continue;  // far from every structure: no point touched
             if (!leaf_mixed) {
                 emit_whole(leaf_reach, l.voxel_begin, l.voxel_end, out);
