@@ -41,7 +41,10 @@ TEST(Cli, UsageErrorsExitTwo)
     for (const char* args : {"", "frobnicate", "info", "--threads 0 info x.pcd", "info --bogus x.pcd",
                              "foveate", "foveate --procedural in.pcd", "foveate --procedural --mode sideways",
                              "foveate --procedural --structure 1", "foveate --procedural --mode single",
-                             "foveate --procedural --mode single --structure 9"}) {
+                             "foveate --procedural --mode single --structure 9",
+                             // An empty value, as an unset shell variable gives, is not "not given".
+                             "foveate --procedural -o ''", "--json '' foveate --procedural", "info ''",
+                             "recognize --model m.pcd --scene s.pcd --strict"}) {
         const Result r = run(args);
         EXPECT_EQ(r.exit_code, 2) << "mfpc " << args << "\n" << r.err;
         EXPECT_EQ(r.err.rfind("mfpc: ", 0), 0u) << "mfpc " << args << "\n" << r.err;

@@ -13,6 +13,23 @@
 #include "cli_commands.hpp"
 #include "mfpc/core/error.hpp"
 
+namespace {
+
+// An option or argument given as an empty string ("-o ''", often an unset shell variable) is a
+// usage error: the commands read an empty path as "not given" and would silently skip the output.
+void reject_empty_values(const CLI::App& app)
+{
+    for (const CLI::Option* option : app.get_options()) {
+        if (option->count() == 0 || option->get_expected_min() == 0) continue;  // absent, or a flag
+        for (const std::string& value : option->results()) {
+            if (value.empty()) throw CLI::ValidationError(option->get_name(), "is empty");
+        }
+    }
+    for (const CLI::App* command : app.get_subcommands()) reject_empty_values(*command);
+}
+
+}  // namespace
+
 int main(int argc, char** argv)
 {
     using namespace mfpc::cli;
@@ -45,6 +62,7 @@ int main(int argc, char** argv)
     // callback: after the options are read, before the subcommand callbacks.
     std::unique_ptr<tbb::global_control> threads;
     app.parse_complete_callback([&] {
+        reject_empty_values(app);
         const int count = global.threads > 0 ? global.threads : tbb::info::default_concurrency();
         threads = std::make_unique<tbb::global_control>(tbb::global_control::max_allowed_parallelism,
                                                         std::size_t(count));

@@ -91,6 +91,7 @@ void run_recognize(const RecognizeOptions& options, const GlobalOptions& global)
 {
     if (!options.mode.empty() && options.fovea.empty() && options.mode != "none")
         throw CLI::ValidationError("--mode", "needs --fovea");
+    if (options.strict && options.fovea.empty()) throw CLI::ValidationError("--strict", "needs --fovea");
     const FoveationMode mode = parse_foveation_mode(options.mode.empty() ? (options.fovea.empty() ? "none" : "mfpc")
                                                                          : options.mode,
                                                     "--mode");
