@@ -1,5 +1,6 @@
 #include "mfpc/recognition/model.hpp"
 
+#include <algorithm>
 #include <array>
 #include <cmath>
 #include <cstring>
@@ -197,6 +198,16 @@ Model read_model_cache(const std::filesystem::path& path)
     if (r.position() != body) throw Error(where, "corrupt model cache: trailing bytes");
     if (!all_finite(model.points) || !all_finite(model.features.keypoints) || !all_finite(model.features.frames))
         throw Error(where, "corrupt model cache: non-finite coordinates");
+    // The checksum finds damage, not a cache written with bad values: a NaN descriptor would match
+    // nothing and quietly cost the model keypoints, and bad parameters would describe the scene
+    // with them.
+    const auto& descriptors = model.features.descriptors;
+    if (!std::all_of(descriptors.begin(), descriptors.end(), [](float v) { return std::isfinite(v); }))
+        throw Error(where, "corrupt model cache: non-finite descriptor values");
+    const FeatureParams& p = model.params;
+    const auto positive = [](float r) { return std::isfinite(r) && r > 0.0f; };
+    if (p.normal_k < 3 || !positive(p.keypoint_radius) || !positive(p.lrf_radius) || !positive(p.shot_radius))
+        throw Error(where, "corrupt model cache: invalid parameters (normal_k below 3 or a radius not positive)");
     if (model.features.size() < 3) throw Error(where, "the cached model has fewer than 3 keypoints");
     return model;
 }

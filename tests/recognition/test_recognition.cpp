@@ -285,6 +285,26 @@ TEST(ModelCache, RoundTripsAndRejectsDamage)
         const auto file = dir.write(name, content);
         EXPECT_THROW(read_model_cache(file), Error) << name;
     }
+
+    // Well-formed caches (a valid checksum) holding values no model has.
+    auto forged_error = [&](auto&& forge) {
+        Model bad = model;
+        forge(bad);
+        write_model_cache(dir / "forged.mfpcm", bad);
+        try {
+            read_model_cache(dir / "forged.mfpcm");
+        } catch (const Error& e) {
+            return std::string(e.what());
+        }
+        return std::string("no error");
+    };
+    EXPECT_NE(forged_error([](Model& m) { m.features.descriptors[7] = std::nanf(""); })
+                  .find("corrupt model cache: non-finite descriptor values"),
+              std::string::npos);
+    EXPECT_NE(forged_error([](Model& m) { m.params.shot_radius = -0.01f; }).find("corrupt model cache: invalid parameters"),
+              std::string::npos);
+    EXPECT_NE(forged_error([](Model& m) { m.params.normal_k = 0; }).find("corrupt model cache: invalid parameters"),
+              std::string::npos);
 }
 
 // The acceptance bars of the recognition stage on the shared real scenes, with the built-in
