@@ -123,12 +123,12 @@ json features_json(const FeatureParams& p)
 void check_positive(float value, const std::string& source, const std::string& key)
 {
     if (!(value > 0.0f) || !std::isfinite(value))
-        throw Error(source + ": " + key, "must be a positive number, got " + std::to_string(value));
+        throw Error(source + ": " + key, "must be a positive number, got " + format_number(value));
 }
 
 void check_fraction(float value, const std::string& source, const std::string& key)
 {
-    if (!(value >= 0.0f && value <= 1.0f)) throw Error(source + ": " + key, "must lie in [0, 1], got " + std::to_string(value));
+    if (!(value >= 0.0f && value <= 1.0f)) throw Error(source + ": " + key, "must lie in [0, 1], got " + format_number(value));
 }
 
 }  // namespace

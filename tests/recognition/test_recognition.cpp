@@ -230,7 +230,10 @@ TEST(RecognitionParams, DefaultsRoundTripAndBadValuesAreNamed)
     const RecognitionParams defaults;
     const RecognitionParams parsed = parse_recognition_params(to_json(defaults), "defaults");
     EXPECT_EQ(to_json(parsed), to_json(defaults));
-    EXPECT_EQ(params_error(R"({"scene": {"shot_radius": 0}})"), "p.json: scene.shot_radius: must be a positive number, got 0.000000");
+    EXPECT_EQ(params_error(R"({"scene": {"shot_radius": 0}})"), "p.json: scene.shot_radius: must be a positive number, got 0");
+    // Numbers print in full: a tiny one is not shown as 0.000000.
+    EXPECT_EQ(params_error(R"({"scene": {"shot_radius": -1e-9}})"),
+              "p.json: scene.shot_radius: must be a positive number, got -1e-09");
     EXPECT_NE(params_error(R"({"scene": {"shot_radus": 0.02}})").find("p.json: scene.shot_radus: unknown key"), std::string::npos);
     EXPECT_NE(params_error(R"({"match_k": 2.5})").find("p.json: match_k: must be an integer"), std::string::npos);
     EXPECT_NE(params_error(R"({"grouping": "ransac"})").find("must be one of hough|gc"), std::string::npos);
