@@ -102,6 +102,19 @@ TEST(Cli, InfoOnTheSharedScene)
     EXPECT_NE(table.out.find("640 x 480"), std::string::npos);
 }
 
+// A spacing needs two points: with fewer there is none to report (not 0 mm).
+TEST(Cli, InfoOfASinglePointHasNoSpacing)
+{
+    const test::TempDir dir;
+    const auto one = dir.write("one.pcd", "VERSION 0.7\nFIELDS x y z\nSIZE 4 4 4\nTYPE F F F\nCOUNT 1 1 1\n"
+                                          "WIDTH 1\nHEIGHT 1\nVIEWPOINT 0 0 0 1 0 0 0\nPOINTS 1\nDATA ascii\n1 2 3\n");
+    const Result r = run("--json - info '" + one.string() + "'");
+    ASSERT_EQ(r.exit_code, 0) << r.err;
+    EXPECT_TRUE(nlohmann::json::parse(r.out)["mean_spacing"].is_null());
+    const Result table = run("info '" + one.string() + "'");
+    EXPECT_NE(table.out.find("n/a (fewer than 2 finite points)"), std::string::npos) << table.out;
+}
+
 nlohmann::json foveate_json(const std::string& args)
 {
     const Result r = run("--json - foveate " + args);

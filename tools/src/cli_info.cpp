@@ -43,7 +43,8 @@ void run_info(const InfoOptions& options, const GlobalOptions& global)
             {"bounding box min", format_vector(box.min)},
             {"bounding box max", format_vector(box.max)},
             {"size", format_vector(box.size())},
-            {"mean spacing", format_fixed(spacing * 1000.0, 3) + " mm (mean distance to the nearest point)"},
+            {"mean spacing", cloud.size() < 2 ? std::string("n/a (fewer than 2 finite points)")
+                                              : format_fixed(spacing * 1000.0, 3) + " mm (mean distance to the nearest point)"},
         };
         print_rows(rows);
     }
@@ -59,7 +60,7 @@ void run_info(const InfoOptions& options, const GlobalOptions& global)
         {"has_normals", cloud.has_normals()},
         {"has_colors", cloud.has_colors()},
         {"bounding_box", {{"min", to_json(box.min)}, {"max", to_json(box.max)}}},
-        {"mean_spacing", spacing},
+        {"mean_spacing", cloud.size() < 2 ? nlohmann::ordered_json(nullptr) : nlohmann::ordered_json(spacing)},
     });
 }
 
