@@ -2,7 +2,6 @@
 
 #include <algorithm>
 #include <atomic>
-#include <bit>
 #include <cmath>
 #include <limits>
 #include <mutex>
@@ -302,8 +301,7 @@ void OrganizedNeighbors::search_window(const Stage& stage, std::span<const Point
 
         std::vector<detail::Candidate> best;
         best.reserve(want + 1);
-        std::vector<std::int32_t> window_points(stage.steps.size());
-        std::vector<float> window_distances(stage.steps.size());
+        std::vector<std::uint64_t> keys(stage.steps.size());
         for (std::size_t o = range.begin(); o < range.end(); ++o) {
             const std::size_t at = o - range.begin();
             if (listed) {
@@ -319,17 +317,22 @@ void OrganizedNeighbors::search_window(const Stage& stage, std::span<const Point
                 // The whole window lies in the image (most queries): no pixel needs a bounds check.
                 // All the window's distances first, then the selection: with no branch between
                 // them, the window's loads overlap, where keep_nearest's mispredicted compares
-                // issued them one after another.
+                // issued them one after another. Each candidate is packed in one integer (an empty
+                // pixel the largest) and the `want` smallest are selected in place, one integer
+                // compare per candidate: keep_nearest's pair compares and vector pushes made the
+                // selection a third of the search.
                 const std::int32_t* centre_pixel =
                     pixels_.data() + std::size_t(pixel.v) * camera_.width + std::size_t(pixel.u);
-                for (std::size_t j = 0; j < stage.steps.size(); ++j) {
+                std::size_t valid = 0;
+                for (std::size_t j = 0; j < keys.size(); ++j) {
                     const std::int32_t i = centre_pixel[stage.steps[j]];
-                    window_points[j] = i;
-                    window_distances[j] = detail::squared_distance(points_[std::size_t(std::max(i, 0))], center);
+                    const float d2 = detail::squared_distance(points_[std::size_t(std::max(i, 0))], center);
+                    keys[j] = i >= 0 ? detail::candidate_key(d2, std::uint32_t(i)) : ~std::uint64_t(0);
+                    valid += i >= 0;
                 }
-                for (std::size_t j = 0; j < stage.steps.size(); ++j)
-                    if (window_points[j] >= 0)
-                        detail::keep_nearest(best, want, {window_distances[j], std::uint32_t(window_points[j])});
+                const std::size_t n = std::min(valid, want);
+                if (n > 0) detail::select_smallest(keys, n);
+                for (std::size_t j = 0; j < n; ++j) best.push_back(detail::candidate_of(keys[j]));
             } else {
                 visit_window(stage, pixel.u, pixel.v, [&](std::int32_t i) {
                     detail::keep_nearest(best, want,
@@ -389,14 +392,13 @@ void OrganizedNeighbors::nearest_window(const Stage& stage, std::span<const Poin
             const Point& center = queries[q];
             long u, v;
             if (!pixel_of(center, u, v)) continue;
-            // The least (squared distance, index), as one integer: squared distances are >= +0,
-            // where the order of floats is that of their bits.
+            // The least (squared distance, index), packed as one integer.
             std::uint64_t least = std::numeric_limits<std::uint64_t>::max();
             visit_window(stage, u, v, [&](std::int32_t i) {
                 const float d2 = detail::squared_distance(points_[std::size_t(i)], center);
-                least = std::min(least, (std::uint64_t(std::bit_cast<std::uint32_t>(d2)) << 32) | std::uint32_t(i));
+                least = std::min(least, detail::candidate_key(d2, std::uint32_t(i)));
             });
-            const float best = std::bit_cast<float>(std::uint32_t(least >> 32));
+            const float best = detail::candidate_of(least).first;
             const bool found = least != std::numeric_limits<std::uint64_t>::max() && best < radius2;
             // Settled when every point outside the window is farther than the window's nearest
             // (strictly: a tie goes to the lower index, which may lie outside), or, for a miss, at
