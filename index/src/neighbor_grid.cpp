@@ -590,6 +590,7 @@ void NeighborGrid::knn_search_batch(std::span<const Point> queries, int k, std::
         // vectorises; the arithmetic is detail::squared_distance()'s, lane by lane, so results are equal.
         std::vector<float> xs, ys, zs, d2s;
         std::vector<std::uint32_t> ids;
+        std::vector<std::uint64_t> keys;
         std::vector<detail::Candidate> best;
         std::vector<std::uint32_t> one_indices;
         std::vector<float> one_distances;
@@ -629,6 +630,7 @@ void NeighborGrid::knn_search_batch(std::span<const Point> queries, int k, std::
                 const std::size_t count = ids.size();
                 if (count < want) continue;
                 d2s.resize(count);
+                keys.resize(count);
                 next_pending.clear();
                 for (const auto& entry : pending) {
                     const std::uint32_t q = entry.second;
@@ -638,8 +640,10 @@ void NeighborGrid::knn_search_batch(std::span<const Point> queries, int k, std::
                         const float dx = xs[j] - cx, dy = ys[j] - cy, dz = zs[j] - cz;
                         d2s[j] = dx * dx + dy * dy + dz * dz;
                     }
+                    for (std::size_t j = 0; j < count; ++j) keys[j] = detail::candidate_key(d2s[j], ids[j]);
+                    detail::select_smallest(std::span<std::uint64_t>(keys).first(count), want);
                     best.clear();
-                    for (std::size_t j = 0; j < count; ++j) detail::keep_nearest(best, want, {d2s[j], ids[j]});
+                    for (std::size_t j = 0; j < want; ++j) best.push_back(detail::candidate_of(keys[j]));
                     // knn_search's stopping rule.
                     const float margin = shell_margin(center, c, ring);
                     if (!(margin > 0.0f && best.back().first < margin * margin)) {
