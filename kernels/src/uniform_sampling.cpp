@@ -73,9 +73,27 @@ void sample_group(std::span<const Point> points, std::span<const std::uint32_t> 
         lo = lo.cwiseMin(c);
         hi = hi.cwiseMax(c);
     }
-    if ((hi - lo).maxCoeff() >= (1 << axis_bits))
-        throw Error("uniform_sampling", "the cloud spans more than 2^21 cubes of " + format_number(radius) +
-                                            " m on one axis; use a larger radius");
+    // The cube table takes 21 bits of cube number per axis. A cloud that spans more (a stray point
+    // kilometres away) is numbered by rank among its occupied cube numbers on that axis instead:
+    // the same cubes, in the same order, so the same points are kept.
+    std::vector<Eigen::Vector3i> ranked;
+    if ((hi - lo).maxCoeff() >= (1 << axis_bits)) {
+        ranked = cells;
+        for (int axis = 0; axis < 3; ++axis) {
+            std::vector<int> occupied(cells.size());
+            for (std::size_t i = 0; i < cells.size(); ++i) occupied[i] = cells[i][axis];
+            std::sort(occupied.begin(), occupied.end());
+            occupied.erase(std::unique(occupied.begin(), occupied.end()), occupied.end());
+            if (occupied.size() > (std::size_t(1) << axis_bits))
+                throw Error("uniform_sampling", "the points occupy more than 2^21 cubes of " + format_number(radius) +
+                                                    " m along one axis; use a larger radius");
+            for (auto& c : ranked)
+                c[axis] = int(std::lower_bound(occupied.begin(), occupied.end(), c[axis]) - occupied.begin());
+            lo[axis] = 0;
+            hi[axis] = int(occupied.size()) - 1;
+        }
+    }
+    const std::vector<Eigen::Vector3i>& numbered = ranked.empty() ? cells : ranked;
     // One pass in ascending index order (the order PCL visits a cube's points in), keeping per cube
     // the point nearest its centre, the first of equals: the cubes numbered as met, not a sort of
     // the points.
@@ -86,7 +104,7 @@ void sample_group(std::span<const Point> points, std::span<const std::uint32_t> 
     std::vector<Cube> cubes;
     detail::VoxelSlots slots((hi - lo).cast<std::int64_t>().array() + 1, members.size());
     for (std::size_t i = 0; i < members.size(); ++i) {
-        const Eigen::Vector3i d = cells[i] - lo;
+        const Eigen::Vector3i d = numbered[i] - lo;
         // PCL: (ijk + 0.5) * radius in float.
         const Eigen::Vector3f center = (cells[i].cast<float>().array() + 0.5f) * radius;
         const std::uint32_t point = members[i];

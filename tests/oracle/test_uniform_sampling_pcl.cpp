@@ -70,5 +70,20 @@ TEST(UniformSampling, FarOrNonFinitePointsAreNamed)
     }
 }
 
+// A stray point 100 km out puts the cloud past 2^21 cubes per axis, the cube table's key: the
+// occupied cubes are then numbered by rank, and the kept points are those of each part on its own.
+TEST(UniformSampling, AStrayPointFarOutKeepsTheSameSelection)
+{
+    MFPC_SHARED_FILE_OR_SKIP(path, "milk.pcd");
+    const auto oracle = test::load_oracle_cloud(path, 1000000, false);
+    std::vector<Point> points = oracle.cloud.points;
+    const std::vector<std::uint32_t> alone = uniform_sampling(points, 0.01f);
+    points.emplace_back(1e5f, -3e4f, 7e4f);
+    const std::vector<std::uint32_t> with_stray = uniform_sampling(points, 0.01f);
+    std::vector<std::uint32_t> expected = alone;
+    expected.push_back(std::uint32_t(points.size() - 1));
+    EXPECT_EQ(with_stray, expected);
+}
+
 }  // namespace
 }  // namespace mfpc
