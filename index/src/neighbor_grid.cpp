@@ -591,7 +591,6 @@ void NeighborGrid::knn_search_batch(std::span<const Point> queries, int k, std::
         std::vector<float> xs, ys, zs, d2s;
         std::vector<std::uint32_t> ids;
         std::vector<std::uint64_t> keys;
-        std::vector<detail::Candidate> best;
         std::vector<std::uint32_t> one_indices;
         std::vector<float> one_distances;
         std::vector<std::pair<std::uint64_t, std::uint32_t>> pending, next_pending;
@@ -642,17 +641,16 @@ void NeighborGrid::knn_search_batch(std::span<const Point> queries, int k, std::
                     }
                     for (std::size_t j = 0; j < count; ++j) keys[j] = detail::candidate_key(d2s[j], ids[j]);
                     detail::select_smallest(std::span<std::uint64_t>(keys).first(count), want);
-                    best.clear();
-                    for (std::size_t j = 0; j < want; ++j) best.push_back(detail::candidate_of(keys[j]));
                     // knn_search's stopping rule.
                     const float margin = shell_margin(center, c, ring);
-                    if (!(margin > 0.0f && best.back().first < margin * margin)) {
+                    if (!(margin > 0.0f && detail::candidate_of(keys[want - 1]).first < margin * margin)) {
                         next_pending.push_back(entry);
                         continue;
                     }
                     for (std::size_t j = 0; j < want; ++j) {
-                        indices[q * want + j] = best[j].second;
-                        squared_distances[q * want + j] = best[j].first;
+                        const detail::Candidate nearest = detail::candidate_of(keys[j]);
+                        indices[q * want + j] = nearest.second;
+                        squared_distances[q * want + j] = nearest.first;
                     }
                 }
                 pending.swap(next_pending);
