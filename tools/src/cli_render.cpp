@@ -1,9 +1,7 @@
 #include <cmath>
 #include <cstdlib>
 #include <filesystem>
-#include <fstream>
 #include <memory>
-#include <sstream>
 #include <string>
 #include <vector>
 
@@ -15,6 +13,7 @@
 #include "mfpc/core/foveation_config.hpp"
 #include "mfpc/core/json_check.hpp"
 #include "mfpc/core/pose.hpp"
+#include "mfpc/core/text_file.hpp"
 #include "mfpc/recognition/model.hpp"
 #include "mfpc/tools/png_image.hpp"
 #include "mfpc/tools/renderer.hpp"
@@ -46,13 +45,7 @@ constexpr std::size_t max_instances = 1000;
 Instances read_instances(const std::filesystem::path& path)
 {
     const std::string where = path.string();
-    std::error_code status_error;
-    if (!std::filesystem::exists(path, status_error)) throw Error(where, "no such file");
-    std::ifstream in(path, std::ios::binary);
-    if (!in) throw Error(where, "cannot open (permissions?)");
-    std::stringstream stream;
-    stream << in.rdbuf();
-    const std::string text = stream.str();
+    const std::string text = read_text_file(path);
     // Duplicate keys, deep nesting and syntax errors, named the way every JSON reader names them;
     // the text is then known to parse.
     check_json_text(text, where);
@@ -74,6 +67,7 @@ Instances read_instances(const std::filesystem::path& path)
     const std::filesystem::path model = json["model"].get<std::string>();
     // As the user ran `recognize`: relative to the current directory; a result moved with its
     // model (or a ground truth beside its model) also works.
+    std::error_code status_error;
     if (model.is_absolute() || std::filesystem::exists(model, status_error)) {
         instances.model = model;
     } else if (std::filesystem::exists(path.parent_path() / model, status_error)) {
