@@ -67,7 +67,8 @@ public:
                                     std::to_string(expected_count));
         if (count > (end_ - at_) / sizeof(T)) throw Error(where_, "truncated or corrupt model cache");
         std::vector<T> v(count);
-        std::memcpy(static_cast<void*>(v.data()), bytes_.data() + at_, count * sizeof(T));
+        // An empty vector's data() may be null, which memcpy must not get even for 0 bytes.
+        if (count != 0) std::memcpy(static_cast<void*>(v.data()), bytes_.data() + at_, count * sizeof(T));
         at_ += count * sizeof(T);
         return v;
     }
@@ -209,6 +210,10 @@ Model read_model_cache(const std::filesystem::path& path)
     if (p.normal_k < 3 || !positive(p.keypoint_radius) || !positive(p.lrf_radius) || !positive(p.shot_radius))
         throw Error(where, "corrupt model cache: invalid parameters (normal_k below 3 or a radius not positive)");
     if (model.features.size() < 3) throw Error(where, "the cached model has fewer than 3 keypoints");
+    // Keypoints are model points (uniform sampling keeps original points), and the counts add up.
+    if (model.points.size() < model.features.size() ||
+        model.features.candidates != model.features.size() + model.features.invalid)
+        throw Error(where, "corrupt model cache: inconsistent point and keypoint counts");
     return model;
 }
 

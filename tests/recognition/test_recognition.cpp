@@ -308,6 +308,14 @@ TEST(ModelCache, RoundTripsAndRejectsDamage)
               std::string::npos);
     EXPECT_NE(forged_error([](Model& m) { m.params.normal_k = 0; }).find("corrupt model cache: invalid parameters"),
               std::string::npos);
+    EXPECT_NE(forged_error([](Model& m) { m.points.clear(), m.normals.clear(); })
+                  .find("corrupt model cache: inconsistent point and keypoint counts"),
+              std::string::npos);
+    EXPECT_NE(forged_error([](Model& m) { m.features.invalid += 1; })
+                  .find("corrupt model cache: inconsistent point and keypoint counts"),
+              std::string::npos);
+    // An empty array is legal (a library caller may name no source): it reads back as empty.
+    EXPECT_EQ(forged_error([](Model& m) { m.source.clear(); }), "no error");
 }
 
 // The acceptance bars of the recognition stage on the shared real scenes, with the built-in
