@@ -6,6 +6,7 @@
 #include <cstring>
 #include <limits>
 #include <string>
+#include <tuple>
 #include <utility>
 
 #include <tbb/blocked_range.h>
@@ -22,7 +23,6 @@ namespace mfpc {
 namespace {
 
 constexpr std::uint64_t empty_row = std::numeric_limits<std::uint64_t>::max();
-constexpr int axis_bits = 21;  // cells per axis < 2^21: a 64-bit key numbers all the cells
 
 // Fibonacci hashing: the top bits of the product mix every bit of the key.
 inline std::uint64_t hash_key(std::uint64_t key, int shift) { return (key * 0x9E3779B97F4A7C15ull) >> shift; }
@@ -55,7 +55,9 @@ NeighborGrid::NeighborGrid(std::span<const Point> points, float cell_size)
                 const Eigen::Vector3f q = points[i] * inverse_cell_;
                 // Also false for NaN.
                 if (!(std::abs(q.x()) <= 1e9f && std::abs(q.y()) <= 1e9f && std::abs(q.z()) <= 1e9f))
-                    throw Error("neighbour grid", "point " + std::to_string(i) + " is not finite or too far out");
+                    throw Error("neighbour grid", "point " + std::to_string(i) +
+                                                      " is not finite or lies more than 1e9 cells of " +
+                                                      format_number(cell_size_) + " m from the origin");
                 const Eigen::Vector3i c = cell_of(points[i]);
                 b.lo = b.lo.cwiseMin(c);
                 b.hi = b.hi.cwiseMax(c);
@@ -65,25 +67,53 @@ NeighborGrid::NeighborGrid(std::span<const Point> points, float cell_size)
         [](const Bounds& a, const Bounds& b) { return Bounds{a.lo.cwiseMin(b.lo), a.hi.cwiseMax(b.hi)}; });
     min_cell_ = bounds.lo;
     max_cell_ = bounds.hi;
+    // Below 2^31 cells per axis: every cell lies within 1e9 cells of the origin.
     const Eigen::Vector3i extent = max_cell_ - min_cell_;
-    if (extent.maxCoeff() >= (1 << axis_bits) - 1)
-        throw Error("neighbour grid", "the cloud spans more than 2^21 cells of " + format_number(cell_size) +
-                                          " m on one axis; use a larger cell");
-
-    // Points ordered by (cell key, index). The keys are dense: numbered row-major over the
-    // occupied extent they take 20-30 bits on a room-sized scene at millimetre cells, so a stable
-    // radix sort in 11-bit digits takes 2 or 3 passes, where a comparison sort took 10 times as
-    // long. Stable from index order, it breaks ties by index, whatever the thread count.
     row_length_ = std::uint64_t(extent.x()) + 1;
     rows_per_slice_ = std::uint64_t(extent.y()) + 1;
-    const std::uint64_t cell_count = row_length_ * rows_per_slice_ * (std::uint64_t(extent.z()) + 1);
-    const int key_bits = int(std::bit_width(cell_count - 1));
-    std::vector<std::uint64_t> keys;
-    detail::sort_by_key(
-        points.size(), key_bits, [&](std::size_t i) { return cell_key(cell_of(points[i])); }, ordered_indices_, keys);
-    // Each cell's points are one run of the sorted order, starting where the key changes.
-    for (std::size_t i = 0; i < keys.size(); ++i) {
-        if (i == 0 || keys[i] != keys[i - 1]) cell_begin_.push_back(std::uint32_t(i));
+    const std::uint64_t row_count_bound = rows_per_slice_ * (std::uint64_t(extent.z()) + 1);  // below 2^62
+    // Cells are numbered row-major over the occupied extent when the numbers fit 64 bits, as they
+    // do for any cloud but one with points kilometres apart on two or three axes (a stray point).
+    dense_keys_ = row_count_bound <= std::numeric_limits<std::uint64_t>::max() / row_length_;
+
+    // Points ordered by (cell, index), so by (z, y, x) of their cells. Dense keys take 20-30 bits
+    // on a room-sized scene at millimetre cells, so a stable radix sort in 11-bit digits takes 2
+    // or 3 passes, where a comparison sort took 10 times as long. Otherwise the points are sorted
+    // by x, then by row: more passes, for the rare cloud that needs them. Stable from index order,
+    // either breaks ties by index, whatever the thread count.
+    std::vector<std::uint64_t> keys;  // the sorted points' cell numbers, when dense
+    if (dense_keys_) {
+        const int key_bits = int(std::bit_width(row_count_bound * row_length_ - 1));
+        detail::sort_by_key(
+            points.size(), key_bits, [&](std::size_t i) { return cell_key(cell_of(points[i])); }, ordered_indices_,
+            keys);
+        // Each cell's points are one run of the sorted order, starting where the key changes.
+        for (std::size_t i = 0; i < keys.size(); ++i) {
+            if (i == 0 || keys[i] != keys[i - 1]) cell_begin_.push_back(std::uint32_t(i));
+        }
+    } else {
+        struct Entry {
+            std::uint64_t row;
+            std::uint32_t x;  // from min_cell_
+            std::uint32_t index;
+        };
+        std::vector<Entry> entries(points.size());
+        tbb::parallel_for(tbb::blocked_range<std::size_t>(0, points.size(), 4096), [&](const auto& range) {
+            for (std::size_t i = range.begin(); i < range.end(); ++i) {
+                const Eigen::Vector3i d = cell_of(points[i]) - min_cell_;
+                entries[i] = {std::uint64_t(d.z()) * rows_per_slice_ + std::uint64_t(d.y()), std::uint32_t(d.x()),
+                              std::uint32_t(i)};
+            }
+        });
+        detail::radix_sort(entries, 0, int(std::bit_width(std::uint32_t(extent.x()))),
+                           [](const Entry& e) { return std::uint64_t(e.x); });
+        detail::radix_sort(entries, 0, int(std::bit_width(row_count_bound - 1)), [](const Entry& e) { return e.row; });
+        ordered_indices_.resize(points.size());
+        for (std::size_t i = 0; i < entries.size(); ++i) {
+            ordered_indices_[i] = entries[i].index;
+            if (i == 0 || entries[i].row != entries[i - 1].row || entries[i].x != entries[i - 1].x)
+                cell_begin_.push_back(std::uint32_t(i));
+        }
     }
     ordered_points_.resize(points.size());
     tbb::parallel_for(tbb::blocked_range<std::size_t>(0, points.size(), 4096), [&](const auto& range) {
@@ -116,6 +146,18 @@ NeighborGrid::NeighborGrid(std::span<const Point> points, float cell_size)
         rows_[slot] = Row{row_key, begin, end};
         begin = end;
     }
+}
+
+std::uint64_t NeighborGrid::group_key(const Eigen::Vector3i& cell) const
+{
+    if (dense_keys_) return cell_key(cell);
+    // The cell's place in cell order, which orders as the dense numbers would.
+    const Row* row = find_row(cell.y(), cell.z());
+    if (row == nullptr) return std::numeric_limits<std::uint64_t>::max();
+    const auto first = cell_x_.begin() + row->cell_begin, last = cell_x_.begin() + row->cell_end;
+    const auto at = std::lower_bound(first, last, cell.x());
+    return at != last && *at == cell.x() ? std::uint64_t(at - cell_x_.begin())
+                                         : std::numeric_limits<std::uint64_t>::max();
 }
 
 const NeighborGrid::Row* NeighborGrid::find_row(int y, int z) const
@@ -249,7 +291,6 @@ Neighborhoods NeighborGrid::radius_neighborhoods(std::span<const Point> centers,
     // its own box, with radius_search's arithmetic and test: the same neighbours, in the same
     // order, with the same squared distances.
     struct Member {
-        std::uint64_t key;  // the box's lowest cell, packed (the sort's key)
         std::uint32_t center;
         Eigen::Vector3i lo, hi;
     };
@@ -259,18 +300,15 @@ Neighborhoods NeighborGrid::radius_neighborhoods(std::span<const Point> centers,
         throw Error("neighbour grid", "more than 2^32 - 1 neighbourhood centres");
     for (std::uint32_t c = 0; c < std::uint32_t(centers.size()); ++c) {
         Eigen::Vector3i lo, hi;
-        if (!search_box(centers[c], radius, lo, hi)) continue;
-        // lo lies in min_cell_ .. max_cell_ + 1, and the extent is below 2^21 - 1 cells per axis.
-        const Eigen::Vector3i d = lo - min_cell_;
-        const std::uint64_t key = (std::uint64_t(d.z()) << (2 * axis_bits)) | (std::uint64_t(d.y()) << axis_bits) |
-                                  std::uint64_t(d.x());
-        members.push_back({key, c, lo, hi});
+        if (search_box(centers[c], radius, lo, hi)) members.push_back({c, lo, hi});
     }
-    tbb::parallel_sort(members.begin(), members.end(),
-                       [](const Member& a, const Member& b) { return a.key != b.key ? a.key < b.key : a.center < b.center; });
-    std::vector<std::uint32_t> groups;  // start of each run of equal keys, plus the end
+    // By (z, y, x) of the lowest cell, then centre.
+    tbb::parallel_sort(members.begin(), members.end(), [](const Member& a, const Member& b) {
+        return std::tie(a.lo.z(), a.lo.y(), a.lo.x(), a.center) < std::tie(b.lo.z(), b.lo.y(), b.lo.x(), b.center);
+    });
+    std::vector<std::uint32_t> groups;  // start of each run of equal lowest cells, plus the end
     for (std::uint32_t i = 0; i < members.size(); ++i)
-        if (i == 0 || members[i].key != members[i - 1].key) groups.push_back(i);
+        if (i == 0 || members[i].lo != members[i - 1].lo) groups.push_back(i);
     groups.push_back(std::uint32_t(members.size()));
 
     // Fixed chunks of groups, each searched into its own lists, then copied to the centres' places:
@@ -566,7 +604,8 @@ void NeighborGrid::knn_search_batch(std::span<const Point> queries, int k, std::
     if (want == 0 || queries.empty()) return;
     detail::check_finite_queries(queries);
 
-    // Queries grouped by their cell; a query outside the grid's cell range gets a group of its own.
+    // Queries grouped by their cell; a query outside the grid's cell range gets a group of its own,
+    // and so does one in an empty cell when cells are not numbered densely.
     constexpr std::uint64_t outside = std::numeric_limits<std::uint64_t>::max();
     std::vector<std::pair<std::uint64_t, std::uint32_t>> order(queries.size());
     tbb::parallel_for(tbb::blocked_range<std::size_t>(0, queries.size(), 4096), [&](const auto& range) {
@@ -575,7 +614,7 @@ void NeighborGrid::knn_search_batch(std::span<const Point> queries, int k, std::
             std::uint64_t key = outside;
             if (c.allFinite() && (c.array() >= min_cell_.cast<float>().array()).all() &&
                 (c.array() <= max_cell_.cast<float>().array()).all())
-                key = cell_key(c.cast<int>());
+                key = group_key(c.cast<int>());
             order[i] = {key, std::uint32_t(i)};
         }
     });

@@ -68,13 +68,11 @@ OrganizedNeighbors::OrganizedNeighbors(const PointCloud& cloud, const Camera& ca
         low = low.min(p.array());
         high = high.max(p.array());
     }
-    // NeighborGrid's limits (cells per axis below 2^21, coordinates within 1e9 cells), with a
-    // margin for the floors' rounding.
+    // NeighborGrid's limit (coordinates within 1e9 cells), with a margin for the floors' rounding.
     const double inverse = 1.0 / double(fallback_cell);
-    if (!cloud.empty() && (((high - low).cast<double>() * inverse + 3.0 >= double((1 << 21) - 1)).any() ||
-                           (low.abs().max(high.abs()).cast<double>() * inverse > 0.5e9).any()))
-        throw Error("organized neighbours", "the cloud spans too many fallback grid cells of " +
-                                                std::to_string(fallback_cell) + " m; use a larger cell");
+    if (!cloud.empty() && (low.abs().max(high.abs()).cast<double>() * inverse > 0.5e9).any())
+        throw Error("organized neighbours", "a point lies more than 5e8 fallback grid cells of " +
+                                                format_number(fallback_cell) + " m from the sensor; use a larger cell");
     // A k-nearest query the first window cannot settle (an oblique surface, a depth edge, a far
     // and sparse background: 8% of a Kinect view) tries a window twice as wide, which settles all
     // but 2% of those, and so on. The grid, the last resort, is far slower for such queries (its

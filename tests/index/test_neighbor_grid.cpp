@@ -188,7 +188,7 @@ TEST(NeighborGrid, NearestWithinRadiusMatchesBruteForce)
 
 TEST(NeighborGrid, AnExtentOfMillionsOfCellsPerAxisStillFindsEveryNeighbour)
 {
-    // Almost 2^21 cells per axis: the cell keys take 63 bits, the most the grid's sort handles.
+    // Almost 2^21 cells per axis: the cell numbers take 63 bits.
     std::mt19937 rng(6);
     std::uniform_real_distribution<float> coordinate(-1000.0f, 1000.0f);
     std::vector<Point> points;
@@ -334,8 +334,60 @@ TEST(NeighborGrid, EmptyCloudAndBadCellSize)
     EXPECT_TRUE(indices.empty());
     EXPECT_THROW(NeighborGrid(none, 0.0f), Error);
     EXPECT_THROW(NeighborGrid(none, -1.0f), Error);
+    // Cells are numbered within 1e9 of the origin: 1e8 cells out is a grid, 1e10 is not.
     const std::vector<Point> spread = {Point(0, 0, 0), Point(1e5f, 0, 0)};
-    EXPECT_THROW(NeighborGrid(spread, 0.001f), Error);
+    EXPECT_EQ(NeighborGrid(spread, 0.001f).size(), 2u);
+    const std::vector<Point> too_far = {Point(0, 0, 0), Point(1e7f, 0, 0)};
+    EXPECT_THROW(NeighborGrid(too_far, 0.001f), Error);
+}
+
+// A stray point kilometres out on one axis leaves the cells' row-major numbers within 64 bits;
+// strays out on three axes do not, and the grid sorts its cells by row and x instead. Either way
+// every query finds what a scan of every point finds.
+TEST(NeighborGrid, StrayPointsKilometresOutLeaveEveryQueryExact)
+{
+    const auto scene = test::random_points(3000, 21);
+    const std::vector<std::vector<Point>> stray_sets = {
+        {Point(5e5f, 0.5f, 0.25f)},
+        {Point(3e6f, -2e6f, 4e6f), Point(-4e6f, 1e6f, -3e6f), Point(3e6f, -2e6f + 0.125f, 4e6f)}};
+    for (const auto& strays : stray_sets) {
+        std::vector<Point> points = scene;
+        points.insert(points.end(), strays.begin(), strays.end());
+        const NeighborGrid grid(points, 0.1f);
+        std::vector<Point> queries;
+        for (std::size_t q = 0; q < scene.size(); q += 50) queries.push_back(scene[q]);
+        for (const Point& stray : strays) queries.push_back(stray), queries.push_back(stray + Point(0.2f, 0, 0));
+        queries.emplace_back(1.5f, -1.2f, 0.7f);
+        const float radius = 0.25f;
+        const Neighborhoods hoods = grid.radius_neighborhoods(queries, radius);
+        constexpr int k = 6;
+        std::vector<std::uint32_t> batch_indices(queries.size() * k);
+        std::vector<float> batch_distances(batch_indices.size());
+        grid.knn_search_batch(queries, k, batch_indices, batch_distances);
+        std::vector<std::uint32_t> indices;
+        std::vector<float> distances;
+        for (std::size_t q = 0; q < queries.size(); ++q) {
+            std::vector<std::pair<float, std::uint32_t>> all;
+            std::vector<std::uint32_t> within;
+            for (std::uint32_t i = 0; i < points.size(); ++i) {
+                all.emplace_back(brute_distance(points[i], queries[q]), i);
+                if (all.back().first < radius * radius) within.push_back(i);
+            }
+            grid.radius_search(queries[q], radius, indices, distances);
+            const auto hood = hoods.indices_of(q);
+            EXPECT_TRUE(std::equal(indices.begin(), indices.end(), hood.begin(), hood.end()))
+                << "strays " << strays.size() << " query " << q;
+            std::sort(indices.begin(), indices.end());
+            EXPECT_EQ(indices, within) << "strays " << strays.size() << " query " << q;
+            std::partial_sort(all.begin(), all.begin() + k, all.end());
+            grid.knn_search(queries[q], k, indices, distances);
+            for (std::size_t j = 0; j < std::size_t(k); ++j) {
+                EXPECT_EQ(indices[j], all[j].second) << "strays " << strays.size() << " query " << q;
+                EXPECT_EQ(batch_indices[q * k + j], all[j].second) << "strays " << strays.size() << " query " << q;
+            }
+            expect_nearest_as_brute_force(grid, points, queries[q], radius, int(q));
+        }
+    }
 }
 
 }  // namespace

@@ -297,7 +297,8 @@ TEST(OrganizedNeighbors, RefusesAnUnorganizedCloudAndBadArguments)
     PointCloud shared_pixel = cloud;
     shared_pixel.source_index[5] = shared_pixel.source_index[4];
     EXPECT_THROW(OrganizedNeighbors(shared_pixel, *camera), Error);
-    EXPECT_THROW(OrganizedNeighbors(cloud, *camera, 3, 1e-8f), Error);  // too many grid cells, said at once
+    // Points more than 5e8 fallback grid cells out, said at once.
+    EXPECT_THROW(OrganizedNeighbors(cloud, *camera, 3, 1e-10f), Error);
 
     OrganizedNeighbors organized(cloud, *camera);
     std::vector<std::uint32_t> indices(2);

@@ -406,6 +406,44 @@ TEST(Recognize, ObjectsPartlyWithoutDepthKeepTheirTruePoses)
     EXPECT_EQ(evaluation.instances_false, 0u);
 }
 
+// Stray points far out (a bad depth reading written as a huge value) are points like any other:
+// put in empty pixels of the real scene, 20 km and 400 km out, they change nothing near the
+// carton, where they stopped the neighbour search before (its cells spanned too much).
+TEST(Recognize, StrayPointsKilometresOutChangeNothingNearby)
+{
+    MFPC_SHARED_FILE_OR_SKIP(model_path, "milk.pcd");
+    MFPC_SHARED_FILE_OR_SKIP(scene_path, "milk_cartoon_all_small_clorox.pcd");
+    const PointCloud scene = read_cloud(scene_path);
+    ASSERT_TRUE(scene.organized());
+    PointCloud strayed = scene;
+    const Point strays[] = {Point(2e4f, 0.0f, 1e5f), Point(3e5f, -2e5f, 4e5f)};
+    std::size_t added = 0;
+    for (std::uint32_t pixel = 0, i = 0; added < 2 && pixel < scene.source_size(); ++pixel) {
+        if (i < scene.size() && scene.source_position(i) == pixel) {
+            ++i;
+            continue;
+        }
+        const auto at = std::ptrdiff_t(i + added);  // the empty pixel's place in source order
+        strayed.points.insert(strayed.points.begin() + at, strays[added]);
+        strayed.source_index.insert(strayed.source_index.begin() + at, pixel);
+        if (strayed.has_colors()) strayed.colors.insert(strayed.colors.begin() + at, Rgb{});
+        ++added;
+    }
+    ASSERT_EQ(added, 2u);
+    const RecognitionParams params;
+    const Model model = prepare_model(read_cloud(model_path), params.model, "milk.pcd");
+    const FoveationConfig config =
+        read_foveation_config(std::filesystem::path(MFPC_SOURCE_DIR) / "examples/configs/milk_carton.json");
+    const SceneFoveation foveation{&config, FoveationMode::mfpc, 0};
+    const RecognitionResult expected = recognize(model, scene, params, foveation);
+    const RecognitionResult result = recognize(model, strayed, params, foveation);
+    ASSERT_EQ(result.instances.size(), 1u);
+    ASSERT_EQ(expected.instances.size(), 1u);
+    EXPECT_EQ(0, std::memcmp(result.instances[0].transform.data(), expected.instances[0].transform.data(),
+                             16 * sizeof(float)));
+    EXPECT_EQ(result.correspondences, expected.correspondences);
+}
+
 // The whole pipeline gives the same bits with one thread and two.
 TEST(Recognize, BitIdenticalAcrossThreadCounts)
 {

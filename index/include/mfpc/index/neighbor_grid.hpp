@@ -53,6 +53,8 @@ struct Neighborhoods {
 class NeighborGrid {
 public:
     // `cell_size` > 0: about the query radius for radius queries; a few point spacings for kNN.
+    // Throws mfpc::Error for a point not finite or more than 1e9 cells from the origin. A few
+    // points far from the rest (strays kilometres out) are fine: only occupied cells take memory.
     NeighborGrid(std::span<const Point> points, float cell_size);
 
     std::span<const Point> points() const { return points_; }
@@ -92,12 +94,15 @@ private:
         std::uint32_t cell_end;
     };
     // Cells numbered row-major (x fastest) from the grid's minimum cell: sorting by it orders
-    // cells by (z, y, x), so each row of cells is one run.
+    // cells by (z, y, x), so each row of cells is one run. Only when dense_keys_ (the numbers fit).
     std::uint64_t cell_key(const Eigen::Vector3i& cell) const
     {
         const Eigen::Vector3i d = cell - min_cell_;
         return (std::uint64_t(d.z()) * rows_per_slice_ + std::uint64_t(d.y())) * row_length_ + std::uint64_t(d.x());
     }
+    // A number of a cell within min_cell_..max_cell_ that orders cells as cell_key does: cell_key
+    // itself when the numbers fit, else the place of an occupied cell (all ones for an empty one).
+    std::uint64_t group_key(const Eigen::Vector3i& cell) const;
     const Row* find_row(int y, int z) const;
     // The cells radius_search reads around `center`: lo..hi, within the occupied cells and one
     // beyond. False when there are none (or the centre or radius is not a number).
@@ -120,6 +125,7 @@ private:
     Eigen::Vector3i max_cell_ = Eigen::Vector3i::Zero();
     std::uint64_t row_length_ = 1;      // cells along x, min to max
     std::uint64_t rows_per_slice_ = 1;  // rows along y
+    bool dense_keys_ = true;            // cell_key numbers every cell of the extent in 64 bits
     std::vector<Point> ordered_points_;          // points in cell order
     std::vector<std::uint32_t> ordered_indices_;  // their indices into points_
     std::vector<std::int32_t> cell_x_;            // x of each occupied cell, in cell order

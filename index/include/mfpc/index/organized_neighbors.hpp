@@ -31,7 +31,7 @@ public:
     // answers); `window` the first k-nearest window's half width; `fallback_cell` the cell of the
     // grid for what the windows cannot settle. Throws mfpc::Error for a cloud that is not
     // organized on the camera's grid, a point not finite or at z <= 0, two points on one pixel,
-    // or an extent too large for the fallback grid's cells.
+    // or a point more than 5e8 of the fallback grid's cells from the sensor.
     OrganizedNeighbors(const PointCloud& cloud, const Camera& camera, int window = 3, float fallback_cell = 0.005f);
     OrganizedNeighbors(PointCloud&&, const Camera&, int = 3, float = 0.005f) = delete;
     ~OrganizedNeighbors();
