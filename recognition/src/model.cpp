@@ -120,10 +120,19 @@ Model prepare_model(const PointCloud& cloud, const FeatureParams& params, const 
     if (!orientation.empty()) orient_normals(model.normals, orientation);
     const auto keypoints = uniform_sampling(model.points, params.keypoint_radius);
     model.features = describe_keypoints(model.points, keypoints, grid, params, timings, orientation);
-    if (model.features.size() < 3)
-        throw Error(source, "the model has " + std::to_string(model.features.size()) +
+    // Few keypoints sampled means an object small for the radius; many sampled but few valid,
+    // supports too sparse or too thin (points on a line) for a frame.
+    const Features& f = model.features;
+    if (f.size() < 3 && f.candidates < 3)
+        throw Error(source, "the model has " + std::to_string(f.size()) +
                                 " usable keypoints (fewer than 3): is it too small for keypoint_radius " +
-                                std::to_string(params.keypoint_radius) + "?");
+                                format_number(params.keypoint_radius) + "?");
+    if (f.size() < 3)
+        throw Error(source, "the model has " + std::to_string(f.size()) + " usable keypoints (fewer than 3): " +
+                                std::to_string(f.invalid) + " of its " + std::to_string(f.candidates) +
+                                " keypoints have no defined local reference frame or SHOT descriptor: too few "
+                                "points within lrf_radius " + format_number(params.lrf_radius) + " and shot_radius " +
+                                format_number(params.shot_radius) + ", or all on a line?");
     return model;
 }
 

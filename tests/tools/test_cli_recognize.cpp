@@ -52,6 +52,24 @@ TEST(CliRecognize, BadInputIsOneLineAndExitOne)
     EXPECT_NE(r.err.find("hough_bins"), std::string::npos) << r.err;
 }
 
+// A model that gives fewer than 3 keypoints is refused with the likely cause: an object small for
+// the keypoint radius (few sampled), or supports with no frame (many sampled, none valid).
+TEST(CliRecognize, AModelWithoutKeypointsSaysWhy)
+{
+    const test::TempDir dir;
+    std::string tiny = "VERSION 0.7\nFIELDS x y z\nSIZE 4 4 4\nTYPE F F F\nCOUNT 1 1 1\nWIDTH 2\nHEIGHT 1\n"
+                       "POINTS 2\nDATA ascii\n0 0 1\n0.001 0 1\n";
+    std::string line = "VERSION 0.7\nFIELDS x y z\nSIZE 4 4 4\nTYPE F F F\nCOUNT 1 1 1\nWIDTH 500\nHEIGHT 1\n"
+                       "POINTS 500\nDATA ascii\n";
+    for (int i = 0; i < 500; ++i) line += std::to_string(0.001 * i) + " 0 1\n";
+    Result r = run("model " + quoted(dir.write("tiny.pcd", tiny)) + " -o " + quoted(dir / "t.mfpcm"));
+    expect_one_line_error(r, 1, "tiny");
+    EXPECT_NE(r.err.find("is it too small for keypoint_radius 0.01?"), std::string::npos) << r.err;
+    r = run("model " + quoted(dir.write("line.pcd", line)) + " -o " + quoted(dir / "l.mfpcm"));
+    expect_one_line_error(r, 1, "line");
+    EXPECT_NE(r.err.find("50 of its 50 keypoints have no defined local reference frame"), std::string::npos) << r.err;
+}
+
 // The model cache: written once, read instead of the cloud with the same result; a cache damaged
 // on disk is refused, not trusted.
 TEST(CliRecognize, ModelCacheGivesTheSameResultAndRejectsDamage)
