@@ -115,24 +115,56 @@ PointIndex::PointIndex(std::span<const Point> points, const PointIndexParams& pa
     // in the leaf (OpenVDB's voxel order).
     const Eigen::Vector3i lo = voxel_of(bounds.min).unaryExpr([](int c) { return c >> 3; });
     const Eigen::Vector3i hi = voxel_of(bounds.max).unaryExpr([](int c) { return c >> 3; });
-    const std::uint64_t span_y = std::uint64_t(hi.y() - lo.y()) + 1;
-    const std::uint64_t span_z = std::uint64_t(hi.z() - lo.z()) + 1;
-    // Each span is below 2^28 leaves, so span_x * span_y cannot overflow.
-    const std::uint64_t span_xy = (std::uint64_t(hi.x() - lo.x()) + 1) * span_y;
-    if (span_xy > std::numeric_limits<std::uint64_t>::max() / (span_z * leaf_voxels)) {
-        throw Error("index", "the cloud spans too many voxels of " + std::to_string(params.voxel_size) +
-                                 " m to number them in 64 bits; use a larger index voxel");
-    }
-    const std::uint64_t key_count = span_xy * span_z * leaf_voxels;
-    const auto key_of = [&](std::size_t i) {
-        const Eigen::Vector3i v = voxel_of(points[i]);
-        const std::uint64_t leaf = (std::uint64_t((v.x() >> 3) - lo.x()) * span_y + std::uint64_t((v.y() >> 3) - lo.y())) *
-                                       span_z +
-                                   std::uint64_t((v.z() >> 3) - lo.z());
-        return leaf * leaf_voxels + std::uint64_t(((v.x() & 7) << 6) | ((v.y() & 7) << 3) | (v.z() & 7));
+    const Eigen::Vector3i span = hi - lo;  // each below 2^28 leaves
+    const std::uint64_t span_y = std::uint64_t(span.y()) + 1;
+    const std::uint64_t span_z = std::uint64_t(span.z()) + 1;
+    const std::uint64_t span_xy = (std::uint64_t(span.x()) + 1) * span_y;  // below 2^56
+    const auto offset_in_leaf = [](const Eigen::Vector3i& v) {
+        return std::uint64_t(((v.x() & 7) << 6) | ((v.y() & 7) << 3) | (v.z() & 7));
     };
     std::vector<std::uint64_t> keys;
-    detail::sort_by_key(n, int(std::bit_width(key_count - 1)), key_of, point_order_, keys);
+    if (span_xy <= std::numeric_limits<std::uint64_t>::max() / (span_z * leaf_voxels)) {
+        const std::uint64_t key_count = span_xy * span_z * leaf_voxels;
+        const auto key_of = [&](std::size_t i) {
+            const Eigen::Vector3i v = voxel_of(points[i]);
+            const Eigen::Vector3i leaf = v.unaryExpr([](int c) { return c >> 3; }) - lo;
+            return ((std::uint64_t(leaf.x()) * span_y + std::uint64_t(leaf.y())) * span_z + std::uint64_t(leaf.z())) *
+                       leaf_voxels +
+                   offset_in_leaf(v);
+        };
+        detail::sort_by_key(n, int(std::bit_width(key_count - 1)), key_of, point_order_, keys);
+    } else {
+        // Leaves too far apart to number (points hundreds of kilometres apart on every axis): the
+        // same order by four stable sorts, offset, z, y, then x, and the occupied leaves numbered
+        // by rank instead, which is all the tables below need of a key.
+        struct Entry {
+            std::uint32_t leaf[3];  // from lo
+            std::uint32_t offset;
+            std::uint32_t index;
+        };
+        std::vector<Entry> entries(n);
+        tbb::parallel_for(all, [&](const auto& range) {
+            for (std::size_t i = range.begin(); i < range.end(); ++i) {
+                const Eigen::Vector3i v = voxel_of(points[i]);
+                const Eigen::Vector3i leaf = v.unaryExpr([](int c) { return c >> 3; }) - lo;
+                entries[i] = {{std::uint32_t(leaf.x()), std::uint32_t(leaf.y()), std::uint32_t(leaf.z())},
+                              std::uint32_t(offset_in_leaf(v)), std::uint32_t(i)};
+            }
+        });
+        detail::radix_sort(entries, 0, 9, [](const Entry& e) { return std::uint64_t(e.offset); });
+        for (int axis = 2; axis >= 0; --axis)
+            detail::radix_sort(entries, 0, int(std::bit_width(std::uint32_t(span[axis]))),
+                               [axis](const Entry& e) { return std::uint64_t(e.leaf[axis]); });
+        point_order_.resize(n);
+        keys.resize(n);
+        std::uint64_t rank = 0;
+        for (std::size_t k = 0; k < n; ++k) {
+            const Entry& e = entries[k];
+            if (k > 0 && !std::equal(e.leaf, e.leaf + 3, entries[k - 1].leaf)) ++rank;
+            point_order_[k] = e.index;
+            keys[k] = rank * leaf_voxels + e.offset;
+        }
+    }
 
     // Voxels start where the key changes, leaves where key / 512 does. The voxels are counted
     // first, so their table is allocated once (on a 10-million-point cloud, growing it cost page

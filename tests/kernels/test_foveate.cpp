@@ -299,6 +299,29 @@ TEST(Foveate, OneShotEqualsFoveationOverAWholeIndex)
     expect_same_foveation(foveate(cloud, config, FoveationMode::none), foveate(cloud, PointIndex(cloud), config, FoveationMode::none), "none");
 }
 
+// Stray points a thousand kilometres out on every axis (too far apart for the index to number its
+// leaves in 64 bits) change nothing: over an index of the whole cloud, strays included, the result
+// is the one without them.
+TEST(Foveate, StraysFarOutOnEveryAxisChangeNothing)
+{
+    const PointCloud cloud = random_cloud_with_attributes(20000, 27);
+    PointCloud strayed = cloud;
+    for (const Point& stray : {Point(-1e6f, -1e6f, -1e6f), Point(1e6f, 1e6f, 1e6f), Point(1e6f, -1e6f, 0.5f)}) {
+        strayed.points.push_back(stray);
+        strayed.colors.push_back({1, 2, 3});
+        strayed.normals.push_back(Point::UnitZ());
+    }
+    strayed.width = std::uint32_t(strayed.size());
+    // Points come out in index order, which follows the index voxel: both indexes use one.
+    const PointIndex index(cloud, {0.01f});
+    const PointIndex strayed_index(strayed, {0.01f});
+    FoveationConfig config;
+    config.structures = random_structures(28, 2, 3);
+    for (const FoveationMode mode : {FoveationMode::mfpc, FoveationMode::raw})
+        expect_same_foveation(foveate(cloud, index, config, mode), foveate(strayed, strayed_index, config, mode),
+                              to_string(mode));
+}
+
 // foveate() reads the members through the runs and never lists them; its result is that of
 // downsampling the listed regions, in every mode, for both downsamplings, with a structure that
 // keeps every point (d_k = 0), on a cloud with colours and normals.
