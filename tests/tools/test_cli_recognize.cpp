@@ -99,6 +99,17 @@ TEST(CliRecognize, ModelCacheGivesTheSameResultAndRejectsDamage)
     for (const char* key : {"foveate", "normals", "keypoints", "lrf", "descriptors", "match", "group", "verify", "total"})
         EXPECT_TRUE(a["timings_ms"].contains(key)) << key;
     ASSERT_EQ(a["instances"][0]["transform"].size(), 16u);
+    // The ground truth is of milk.pcd, and so is the cache (made from it): no warning. A ground
+    // truth of another model is scored, with a warning naming both.
+    EXPECT_EQ(from_cloud.err.find("warning"), std::string::npos) << from_cloud.err;
+    EXPECT_EQ(from_cache.err.find("warning"), std::string::npos) << from_cache.err;
+    std::string other_truth = slurp(truth);
+    other_truth.replace(other_truth.find("milk.pcd"), 8, "bottle.pcd");
+    const Result other = run("recognize --model " + quoted(cache) + " --scene " + quoted(scene) + " --ground-truth " +
+                             quoted(dir.write("other.gt.json", other_truth)) + " --fovea " + quoted(fovea));
+    EXPECT_EQ(other.exit_code, 0) << other.err;
+    EXPECT_NE(other.err.find("is the ground truth of model bottle.pcd, not of milk.pcd"), std::string::npos)
+        << other.err;
 
     // One flipped byte in the middle, and a truncated copy.
     std::string bytes = slurp(cache);

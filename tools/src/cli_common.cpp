@@ -1,5 +1,6 @@
 #include "cli_common.hpp"
 
+#include <filesystem>
 #include <iostream>
 
 #include <CLI/CLI.hpp>
@@ -24,6 +25,15 @@ void write_json(const GlobalOptions& global, const nlohmann::ordered_json& resul
 }
 
 void warn(const std::string& message) { std::cerr << "mfpc: warning: " << message << '\n'; }
+
+void warn_if_truth_of_another_model(const std::string& truth_model, const std::string& model_file,
+                                    const std::string& truth_file)
+{
+    if (truth_model.empty() || model_file.empty()) return;
+    if (std::filesystem::path(truth_model).stem() == std::filesystem::path(model_file).stem()) return;
+    warn(truth_file + " is the ground truth of model " + truth_model + ", not of " +
+         std::filesystem::path(model_file).filename().string() + ": the evaluation scores against that model's poses");
+}
 
 std::string group_digits(std::size_t value)
 {

@@ -31,6 +31,13 @@ void write_json(const GlobalOptions& global, const nlohmann::ordered_json& resul
 
 void warn(const std::string& message);
 
+// Warns when a ground truth names a model other than the one being found (their file names differ
+// but for the extension: milk.pcd and milk.mfpcm are one model): scoring against another object's
+// poses is silently wrong. `model_file` is the model cloud's path (a cache's source); either name
+// empty checks nothing.
+void warn_if_truth_of_another_model(const std::string& truth_model, const std::string& model_file,
+                                    const std::string& truth_file);
+
 // "307,200"
 std::string group_digits(std::size_t value);
 std::string format_fixed(double value, int decimals);

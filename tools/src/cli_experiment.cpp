@@ -197,6 +197,8 @@ void run_experiment_command(const ExperimentOptions& options, const GlobalOption
     const double model_ms = clock.lap_ms();
     const PointCloud scene = read_cloud(config.scene);
     const GroundTruth truth = read_ground_truth(config.ground_truth);
+    warn_if_truth_of_another_model(truth.model, cached ? model.source : config.model.string(),
+                                   config.ground_truth.string());
 
     std::size_t current = 0;
     const auto outcomes = run_experiment(config, model, scene, truth, [&](int done, int total) {

@@ -124,6 +124,7 @@ void run_recognize(const RecognizeOptions& options, const GlobalOptions& global)
     const Model model = load_model(options.model, params.model, !options.params.empty(), options.params, &model_timings);
     params.model = model.params;
     const double model_ms = clock.lap_ms();
+    if (truth) warn_if_truth_of_another_model(truth->model, cached ? model.source : options.model, options.ground_truth);
     CloudReadReport report;
     const PointCloud scene = read_cloud(options.scene, &report);
     const double read_ms = clock.lap_ms();
