@@ -429,8 +429,9 @@ Neighborhoods NeighborGrid::radius_neighborhoods(std::span<const Point> centers,
 
 bool Neighborhoods::is_of(std::span<const Point> points, std::span<const Point> at) const
 {
+    // No memcmp of empty spans: their data() may be null, which memcmp must not get.
     return surface.data() == points.data() && surface.size() == points.size() && centers.size() == at.size() &&
-           std::memcmp(centers.data(), at.data(), at.size() * sizeof(Point)) == 0;
+           (at.empty() || std::memcmp(centers.data(), at.data(), at.size() * sizeof(Point)) == 0);
 }
 
 void Neighborhoods::check_serves(std::span<const Point> points, std::span<const Point> at, float needed,

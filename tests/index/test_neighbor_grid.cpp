@@ -102,7 +102,9 @@ TEST(NeighborGrid, NeighborhoodsAreTheRadiusSearchesOfEachCentre)
     EXPECT_THROW(hoods.within(0, 0.09f, got, got_d2), Error);
     for (const float bad : {0.0f, -0.1f, std::numeric_limits<float>::quiet_NaN()})
         EXPECT_THROW(grid.radius_neighborhoods(centers, bad), Error) << bad;
-    EXPECT_EQ(grid.radius_neighborhoods({}, radius).size(), 0u);
+    const Neighborhoods none = grid.radius_neighborhoods({}, radius);
+    EXPECT_EQ(none.size(), 0u);
+    EXPECT_TRUE(none.is_of(points, {}));  // no centres (a scene without keypoints) serve no centres
 }
 
 // Centres are searched in groups that share their rows: each must still get exactly its own

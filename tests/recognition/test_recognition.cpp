@@ -444,6 +444,26 @@ TEST(Recognize, StrayPointsKilometresOutChangeNothingNearby)
     EXPECT_EQ(result.correspondences, expected.correspondences);
 }
 
+// A fovea that covers no point of the scene leaves nothing to describe: no keypoints, no instances,
+// and no error (the command line warns).
+TEST(Recognize, AFoveaThatCoversNoPointFindsNothing)
+{
+    MFPC_SHARED_FILE_OR_SKIP(model_path, "milk.pcd");
+    const PointCloud model_cloud = read_cloud(model_path);
+    const RecognitionParams params;
+    const Model model = prepare_model(model_cloud, params.model, "milk.pcd");
+    PointCloud scene = model_cloud;
+    for (Point& p : scene.points) p += Point(10.0f, 0.0f, 0.0f);  // far beside the carton's structure
+    const FoveationConfig config =
+        read_foveation_config(std::filesystem::path(MFPC_SOURCE_DIR) / "examples/configs/milk_carton.json");
+    for (const FoveationMode mode : {FoveationMode::mfpc, FoveationMode::raw}) {
+        const RecognitionResult result = recognize(model, scene, params, {&config, mode, 0});
+        EXPECT_EQ(result.counts.scene_points_used, 0u) << to_string(mode);
+        EXPECT_EQ(result.counts.scene_keypoints, 0u) << to_string(mode);
+        EXPECT_TRUE(result.instances.empty()) << to_string(mode);
+    }
+}
+
 // The whole pipeline gives the same bits with one thread and two.
 TEST(Recognize, BitIdenticalAcrossThreadCounts)
 {
