@@ -120,20 +120,24 @@ Model prepare_model(const PointCloud& cloud, const FeatureParams& params, const 
     if (!orientation.empty()) orient_normals(model.normals, orientation);
     const auto keypoints = uniform_sampling(model.points, params.keypoint_radius);
     model.features = describe_keypoints(model.points, keypoints, grid, params, timings, orientation);
+    require_model_keypoints(model.features, params, source);
+    return model;
+}
+
+void require_model_keypoints(const Features& features, const FeatureParams& params, const std::string& where)
+{
+    if (features.size() >= 3) return;
     // Few keypoints sampled means an object small for the radius; many sampled but few valid,
     // supports too sparse or too thin (points on a line) for a frame.
-    const Features& f = model.features;
-    if (f.size() < 3 && f.candidates < 3)
-        throw Error(source, "the model has " + std::to_string(f.size()) +
-                                " usable keypoints (fewer than 3): is it too small for keypoint_radius " +
-                                format_number(params.keypoint_radius) + "?");
-    if (f.size() < 3)
-        throw Error(source, "the model has " + std::to_string(f.size()) + " usable keypoints (fewer than 3): " +
-                                std::to_string(f.invalid) + " of its " + std::to_string(f.candidates) +
-                                " keypoints have no defined local reference frame or SHOT descriptor: too few "
-                                "points within lrf_radius " + format_number(params.lrf_radius) + " and shot_radius " +
-                                format_number(params.shot_radius) + ", or all on a line?");
-    return model;
+    const std::string count = "the model has " + std::to_string(features.size()) + " usable keypoints (fewer than 3)";
+    if (features.candidates < 3)
+        throw Error(where,
+                    count + ": is it too small for keypoint_radius " + format_number(params.keypoint_radius) + "?");
+    throw Error(where, count + ": " + std::to_string(features.invalid) + " of its " +
+                           std::to_string(features.candidates) +
+                           " keypoints have no defined local reference frame or SHOT descriptor: too few points "
+                           "within lrf_radius " + format_number(params.lrf_radius) + " and shot_radius " +
+                           format_number(params.shot_radius) + ", or all on a line?");
 }
 
 bool is_model_cache(const std::filesystem::path& path) { return path.extension() == ".mfpcm"; }

@@ -68,9 +68,7 @@ Model prepare_view_model(const SceneShape& shape, const PointCloud& surface, con
             all.invalid += view.invalid;
         }
     }
-    if (model.features.size() < 3)
-        throw Error(shape.name, "the views give " + std::to_string(model.features.size()) +
-                                    " usable keypoints (fewer than 3): is the object too small for keypoint_radius?");
+    require_model_keypoints(model.features, params, shape.name);
     return model;
 }
 

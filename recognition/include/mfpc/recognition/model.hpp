@@ -29,6 +29,11 @@ Point model_centroid(const Model& model);
 Model prepare_model(const PointCloud& cloud, const FeatureParams& params, const std::string& source,
                     FeatureTimings* timings = nullptr);
 
+// Throws mfpc::Error (naming `where`) when a model has fewer than 3 usable keypoints, saying why
+// it likely has: few sampled (an object small for params.keypoint_radius), or many sampled and
+// none with a frame or descriptor (supports too sparse, or points on a line). prepare_model calls it.
+void require_model_keypoints(const Features& features, const FeatureParams& params, const std::string& where);
+
 // A .mfpcm file name (the model cache below).
 bool is_model_cache(const std::filesystem::path& path);
 
