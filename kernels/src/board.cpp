@@ -363,7 +363,7 @@ std::size_t board_frames(std::span<const Point> keypoints, const NeighborGrid& s
     if (params.margin_bins < 1)
         throw Error(where, "margin_bins must be at least 1, got " + std::to_string(params.margin_bins));
     if (!(params.margin_threshold >= 0.0f) || !std::isfinite(params.margin_threshold))
-        throw Error(where, "margin_threshold must be a number >= 0, got " + std::to_string(params.margin_threshold));
+        throw Error(where, "margin_threshold must be a number >= 0, got " + format_number(params.margin_threshold));
     if (!std::isfinite(params.hole_size_probability) || !std::isfinite(params.steep_threshold))
         throw Error(where, "hole_size_probability and steep_threshold must be numbers");
     if (support)

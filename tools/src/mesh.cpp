@@ -84,7 +84,7 @@ Box TriangleMesh::bounds() const
 PointCloud sample_surface(const TriangleMesh& mesh, float spacing, std::uint32_t seed)
 {
     if (!std::isfinite(spacing) || spacing <= 0.0f) {
-        throw Error("spacing", "must be a positive finite length, got " + std::to_string(spacing));
+        throw Error("spacing", "must be a positive finite length, got " + format_number(spacing));
     }
     check_mesh(mesh);
 
@@ -100,8 +100,8 @@ PointCloud sample_surface(const TriangleMesh& mesh, float spacing, std::uint32_t
     const double cell = spacing;
     const double wanted = std::ceil(oversampling * total / (cell * cell));
     if (wanted > max_samples) {
-        throw Error("spacing", std::to_string(spacing) + " is too fine for a mesh of " + std::to_string(total) +
-                                   " square units (would draw " + std::to_string(wanted) + " samples)");
+        throw Error("spacing", format_number(spacing) + " is too fine for a mesh of " + format_number(total) +
+                                   " square units (would draw " + format_number(wanted) + " samples)");
     }
 
     // The grid starts half a cell below the mesh's lower corner, so that the flat faces found on
@@ -113,8 +113,8 @@ PointCloud sample_surface(const TriangleMesh& mesh, float spacing, std::uint32_t
     for (int axis = 0; axis < 3; ++axis) {
         const double cells = std::floor((double(box.max[axis]) - origin[axis]) / cell) + 1.0;
         if (cells > double(max_cells_per_axis)) {
-            throw Error("spacing", std::to_string(spacing) + " is too fine for a mesh " +
-                                       std::to_string(box.size()[axis]) + " long (more than 2^21 cells an axis)");
+            throw Error("spacing", format_number(spacing) + " is too fine for a mesh " +
+                                       format_number(box.size()[axis]) + " long (more than 2^21 cells an axis)");
         }
     }
 

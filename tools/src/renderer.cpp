@@ -467,7 +467,7 @@ RgbImage render_cloud(const PointCloud& cloud, const FoveationConfig* fovea, std
 {
     check_cloud(cloud, "render");
     if (!(params.point_radius >= 0.0f) || !std::isfinite(params.point_radius)) {
-        throw Error("render", "point radius must be a finite number >= 0, got " + std::to_string(params.point_radius));
+        throw Error("render", "point radius must be a finite number >= 0, got " + format_number(params.point_radius));
     }
     if (cloud.empty()) throw Error("render", "the cloud is empty");
     check_size(params);

@@ -347,8 +347,9 @@ SyntheticDataset make_synthetic_dataset(std::vector<SceneShape> shapes, const Co
     for (const SceneObject& object : dataset.scene.objects)
         nearest = std::min(nearest, (dataset.scene.camera.translation() - object.pose.translation()).norm());
     if (nearest > sensor.max_range)
-        throw Error("synth", "the objects need the camera " + std::to_string(nearest) + " m away, beyond max_range " +
-                                 std::to_string(sensor.max_range) + " m: place fewer objects or raise max_range");
+        throw Error("synth", "the objects need the camera " + format_number(std::round(nearest * 100.0f) / 100.0f) +
+                                 " m away, beyond max_range " + format_number(sensor.max_range) +
+                                 " m: place fewer objects or raise max_range");
     dataset.scan = scan_scene(dataset.scene, sensor, compose.seed);
     dataset.fovea = fovea_per_instance(dataset.scene);
     for (const SceneShape& shape : dataset.scene.shapes) {
