@@ -273,6 +273,20 @@ void NeighborGrid::radius_search(const Point& center, float radius, std::vector<
     squared_distances.resize(found);
 }
 
+std::size_t NeighborGrid::candidate_count(const Point& center, float radius) const
+{
+    Eigen::Vector3i lo, hi;
+    if (!search_box(center, radius, lo, hi)) return 0;
+    std::size_t count = 0;
+    for (int z = lo.z(); z <= hi.z(); ++z) {
+        for (int y = lo.y(); y <= hi.y(); ++y) {
+            std::uint32_t begin = 0, end = 0;
+            if (row_range(y, z, lo.x(), hi.x(), begin, end)) count += end - begin;
+        }
+    }
+    return count;
+}
+
 Neighborhoods NeighborGrid::radius_neighborhoods(std::span<const Point> centers, float radius) const
 {
     if (!(radius > 0.0f) || !std::isfinite(radius))

@@ -6,6 +6,8 @@
 #include <string>
 #include <utility>
 
+#include <tbb/parallel_for.h>
+
 #include "mfpc/core/error.hpp"
 #include "mfpc/index/neighbor_grid.hpp"
 #include "mfpc/kernels/normals.hpp"
@@ -31,7 +33,8 @@ namespace {
 // describe_keypoints over either neighbour index of the normals' source.
 template <class Source>
 Features describe(std::span<const Point> surface, std::span<const std::uint32_t> keypoints, const Source& normal_source,
-                  const FeatureParams& params, FeatureTimings* timings, std::span<const Point> orientation)
+                  const FeatureParams& params, FeatureTimings* timings, std::span<const Point> orientation,
+                  std::size_t support_budget)
 {
     if (!orientation.empty() && orientation.size() != surface.size())
         throw Error("describe_keypoints", "the orientation normals must be one per surface point");
@@ -49,43 +52,82 @@ Features describe(std::span<const Point> surface, std::span<const std::uint32_t>
     const NeighborGrid surface_grid(surface, support);
     std::vector<Point> keypoint_points(keypoints.size());
     for (std::size_t i = 0; i < keypoints.size(); ++i) keypoint_points[i] = surface[keypoints[i]];
-
-    // One search of the larger support per keypoint, which BOARD and SHOT then share.
-    const Neighborhoods neighborhoods = surface_grid.radius_neighborhoods(keypoint_points, support);
-
-    // Normals only where a descriptor or frame reads them: the surface points within the support
-    // of some keypoint.
-    std::vector<std::uint8_t> needed(surface.size(), 0);
-    for (const std::uint32_t n : neighborhoods.indices) needed[n] = 1;
-    std::vector<std::uint32_t> queries;
-    for (std::size_t i = 0; i < surface.size(); ++i)
-        if (needed[i]) queries.push_back(std::uint32_t(i));
-    std::vector<Point> query_points(queries.size());
-    for (std::size_t i = 0; i < queries.size(); ++i) query_points[i] = surface[queries[i]];
-    std::vector<Point> query_normals(queries.size());
-    estimate_normals(query_points, normal_source, NormalParams{params.normal_k, Point::Zero()}, query_normals);
-    if (!orientation.empty()) {
-        std::vector<Point> reference(queries.size());
-        for (std::size_t i = 0; i < queries.size(); ++i) reference[i] = orientation[queries[i]];
-        orient_normals(query_normals, reference);
-    }
     std::vector<Point> normals(surface.size(), Point::Constant(std::numeric_limits<float>::quiet_NaN()));
-    for (std::size_t i = 0; i < queries.size(); ++i) normals[queries[i]] = query_normals[i];
-    time.normals_ms += elapsed_ms(start);
-
-    start = std::chrono::steady_clock::now();
+    std::vector<std::uint8_t> has_normal(surface.size(), 0);
     std::vector<LocalReferenceFrame> board(keypoints.size());
-    BoardParams board_params;
-    board_params.radius = params.lrf_radius;
-    board_frames(keypoint_points, surface_grid, normals, board_params, board, &neighborhoods);
-    time.lrf_ms += elapsed_ms(start);
-
-    start = std::chrono::steady_clock::now();
     std::vector<LocalReferenceFrame> shot_frames(keypoints.size());
     std::vector<float> descriptors(keypoints.size() * shot_size);
-    shot_descriptors(keypoint_points, surface_grid, normals, ShotParams{params.shot_radius}, shot_frames, descriptors,
+    BoardParams board_params;
+    board_params.radius = params.lrf_radius;
+
+    // One search of the larger support per keypoint, which BOARD and SHOT then share. Holding
+    // every keypoint's support at once takes 8 bytes a neighbour: 16 MB on a Kinect scene at the
+    // default radii, but 2 GB with a keypoint every 2 mm and 7 GB with supports as wide as the
+    // scene. So when the grid's mean points per cell (a support spans at most 27 cells) says the
+    // supports may hold more than support_budget neighbours, each keypoint's candidates (the
+    // points of the cells its search reads: a bound of its support) are counted, and the keypoints
+    // go in batches of at most that many candidates. Each keypoint's frame and descriptor come
+    // from its own support, so batching changes no output.
+    std::vector<std::size_t> batch_begins{0};
+    const double mean_per_cell =
+        double(surface.size()) / double(std::max<std::size_t>(1, surface_grid.occupied_cells()));
+    if (double(keypoints.size()) * 27.0 * mean_per_cell > double(support_budget)) {
+        std::vector<std::size_t> bounds(keypoints.size());
+        tbb::parallel_for(std::size_t(0), keypoints.size(), [&](std::size_t i) {
+            bounds[i] = surface_grid.candidate_count(keypoint_points[i], support);
+        });
+        std::size_t held = 0;
+        for (std::size_t i = 0; i < keypoints.size(); ++i) {
+            if (held > 0 && held + bounds[i] > support_budget) {
+                batch_begins.push_back(i);
+                held = 0;
+            }
+            held += bounds[i];
+        }
+    }
+    batch_begins.push_back(keypoints.size());
+    time.normals_ms += elapsed_ms(start);
+
+    for (std::size_t b = 0; b + 1 < batch_begins.size(); ++b) {
+        start = std::chrono::steady_clock::now();
+        const std::size_t begin = batch_begins[b], count = batch_begins[b + 1] - begin;
+        const std::span<const Point> batch = std::span<const Point>(keypoint_points).subspan(begin, count);
+        const Neighborhoods neighborhoods = surface_grid.radius_neighborhoods(batch, support);
+
+        // Normals only where a descriptor or frame reads them, and each once: the surface points
+        // within the support of some keypoint of this batch that no earlier batch needed.
+        constexpr std::uint8_t wanted = 2;
+        for (const std::uint32_t n : neighborhoods.indices)
+            if (has_normal[n] == 0) has_normal[n] = wanted;
+        std::vector<std::uint32_t> queries;
+        for (std::size_t i = 0; i < surface.size(); ++i)
+            if (has_normal[i] == wanted) {
+                has_normal[i] = 1;
+                queries.push_back(std::uint32_t(i));
+            }
+        std::vector<Point> query_points(queries.size());
+        for (std::size_t i = 0; i < queries.size(); ++i) query_points[i] = surface[queries[i]];
+        std::vector<Point> query_normals(queries.size());
+        estimate_normals(query_points, normal_source, NormalParams{params.normal_k, Point::Zero()}, query_normals);
+        if (!orientation.empty()) {
+            std::vector<Point> reference(queries.size());
+            for (std::size_t i = 0; i < queries.size(); ++i) reference[i] = orientation[queries[i]];
+            orient_normals(query_normals, reference);
+        }
+        for (std::size_t i = 0; i < queries.size(); ++i) normals[queries[i]] = query_normals[i];
+        time.normals_ms += elapsed_ms(start);
+
+        start = std::chrono::steady_clock::now();
+        board_frames(batch, surface_grid, normals, board_params, std::span(board).subspan(begin, count),
                      &neighborhoods);
-    time.descriptors_ms += elapsed_ms(start);
+        time.lrf_ms += elapsed_ms(start);
+
+        start = std::chrono::steady_clock::now();
+        shot_descriptors(batch, surface_grid, normals, ShotParams{params.shot_radius},
+                         std::span(shot_frames).subspan(begin, count),
+                         std::span(descriptors).subspan(begin * shot_size, count * shot_size), &neighborhoods);
+        time.descriptors_ms += elapsed_ms(start);
+    }
 
     // Invalid keypoints are dropped in place, the valid ones moved down over them: appending the
     // descriptors to a new array grew it piece by piece, and its fresh pages (4 MB on a scene)
@@ -121,16 +163,16 @@ Features describe(std::span<const Point> surface, std::span<const std::uint32_t>
 
 Features describe_keypoints(std::span<const Point> surface, std::span<const std::uint32_t> keypoints,
                             const NeighborGrid& normal_source, const FeatureParams& params, FeatureTimings* timings,
-                            std::span<const Point> orientation)
+                            std::span<const Point> orientation, std::size_t support_budget)
 {
-    return describe(surface, keypoints, normal_source, params, timings, orientation);
+    return describe(surface, keypoints, normal_source, params, timings, orientation, support_budget);
 }
 
 Features describe_keypoints(std::span<const Point> surface, std::span<const std::uint32_t> keypoints,
                             const OrganizedNeighbors& normal_source, const FeatureParams& params,
-                            FeatureTimings* timings, std::span<const Point> orientation)
+                            FeatureTimings* timings, std::span<const Point> orientation, std::size_t support_budget)
 {
-    return describe(surface, keypoints, normal_source, params, timings, orientation);
+    return describe(surface, keypoints, normal_source, params, timings, orientation, support_budget);
 }
 
 }  // namespace mfpc

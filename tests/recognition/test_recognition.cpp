@@ -17,6 +17,7 @@
 #include "mfpc/index/neighbor_grid.hpp"
 #include "mfpc/index/organized_neighbors.hpp"
 #include "mfpc/kernels/shot.hpp"
+#include "mfpc/kernels/uniform_sampling.hpp"
 #include "mfpc/recognition/evaluation.hpp"
 #include "mfpc/recognition/features.hpp"
 #include "mfpc/recognition/grouping.hpp"
@@ -134,6 +135,30 @@ TEST(DescribeKeypoints, DropsInvalidKeypointsAndKeepsTheRestAligned)
     for (std::size_t i = 0; i < valid.size(); ++i) {
         EXPECT_EQ(mixed.keypoints[i], surface[valid[i]]);
         EXPECT_EQ(mixed.frames[i], alone.frames[i]);
+    }
+}
+
+// Keypoints described in batches (a support budget far below what their supports hold) get the
+// frames, descriptors and normals-dependent results of one batch, bit for bit, in order; a budget
+// below a single support still describes every keypoint (one per batch).
+TEST(DescribeKeypoints, BatchesUnderASmallSupportBudgetChangeNothing)
+{
+    MFPC_SHARED_FILE_OR_SKIP(model_path, "milk.pcd");
+    const PointCloud cloud = read_cloud(model_path);
+    const NeighborGrid grid(cloud.points, normal_grid_cell);
+    const FeatureParams params = RecognitionParams{}.model;
+    const auto keypoints = uniform_sampling(cloud.points, params.keypoint_radius);
+    ASSERT_GT(keypoints.size(), 500u);
+    const Features whole = describe_keypoints(cloud.points, keypoints, grid, params);
+    for (const std::size_t budget : {std::size_t(200000), std::size_t(1)}) {
+        const Features batched = describe_keypoints(cloud.points, keypoints, grid, params, nullptr, {}, budget);
+        EXPECT_EQ(batched.candidates, whole.candidates) << budget;
+        EXPECT_EQ(batched.invalid, whole.invalid) << budget;
+        EXPECT_EQ(batched.keypoints, whole.keypoints) << budget;
+        EXPECT_EQ(batched.frames, whole.frames) << budget;
+        EXPECT_EQ(0, std::memcmp(batched.descriptors.data(), whole.descriptors.data(),
+                                 whole.descriptors.size() * sizeof(float)))
+            << budget;
     }
 }
 

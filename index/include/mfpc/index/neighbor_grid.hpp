@@ -60,12 +60,17 @@ public:
     std::span<const Point> points() const { return points_; }
     float cell_size() const { return cell_size_; }
     std::size_t size() const { return points_.size(); }
+    std::size_t occupied_cells() const { return cell_x_.size(); }
 
     // Indices (into points()) and squared distances of the points within `radius` of `center`,
     // written into the cleared vectors. The order is fixed (cell by cell, ascending index within
     // a cell) but not by distance.
     void radius_search(const Point& center, float radius, std::vector<std::uint32_t>& indices,
                        std::vector<float>& squared_distances) const;
+
+    // How many points radius_search reads around `center` (those of the cells its search spans):
+    // a bound of how many it finds, for the cost of the row lookups alone.
+    std::size_t candidate_count(const Point& center, float radius) const;
 
     // radius_search around every centre, in parallel (the same result at any thread count).
     // Throws mfpc::Error for a radius that is not positive and finite.

@@ -36,6 +36,10 @@ struct FeatureTimings {
 // Kinect view at 1-2 m), so the first shells of cells hold the k neighbours.
 inline constexpr float normal_grid_cell = 0.005f;
 
+// Neighbours (8 bytes each) that describe_keypoints holds at once in the keypoints' supports: 256
+// MB. A Kinect scene at the default radii needs 2 million; more come in batches (see below).
+inline constexpr std::size_t default_support_budget = std::size_t(1) << 25;
+
 // Normals, BOARD frames and SHOT descriptors at `keypoints` (indices into surface) over the search
 // surface `surface`. Normals are estimated only for the surface points inside some keypoint's
 // support, from their `normal_k` nearest neighbours in `normal_source`: a grid over the surface
@@ -45,11 +49,16 @@ inline constexpr float normal_grid_cell = 0.005f;
 // model sampled all around an object has no such viewpoint: its own normals (`orientation`, one
 // per surface point, e.g. a mesh's outward normals) then say which way each estimated normal
 // points; non-finite ones leave the sensor's choice.
+// Keypoints whose supports would hold more than `support_budget` neighbours together are described
+// in batches that each hold at most that many (or one keypoint), with the same result: memory
+// stays bounded for a tiny keypoint radius or supports as wide as the scene.
 Features describe_keypoints(std::span<const Point> surface, std::span<const std::uint32_t> keypoints,
                             const NeighborGrid& normal_source, const FeatureParams& params,
-                            FeatureTimings* timings = nullptr, std::span<const Point> orientation = {});
+                            FeatureTimings* timings = nullptr, std::span<const Point> orientation = {},
+                            std::size_t support_budget = default_support_budget);
 Features describe_keypoints(std::span<const Point> surface, std::span<const std::uint32_t> keypoints,
                             const OrganizedNeighbors& normal_source, const FeatureParams& params,
-                            FeatureTimings* timings = nullptr, std::span<const Point> orientation = {});
+                            FeatureTimings* timings = nullptr, std::span<const Point> orientation = {},
+                            std::size_t support_budget = default_support_budget);
 
 }  // namespace mfpc
