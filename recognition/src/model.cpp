@@ -223,10 +223,11 @@ Model read_model_cache(const std::filesystem::path& path)
     if (p.normal_k < 3 || !positive(p.keypoint_radius) || !positive(p.lrf_radius) || !positive(p.shot_radius))
         throw Error(where, "corrupt model cache: invalid parameters (normal_k below 3 or a radius not positive)");
     if (model.features.size() < 3) throw Error(where, "the cached model has fewer than 3 keypoints");
-    // Keypoints are model points (uniform sampling keeps original points), and the counts add up.
-    if (model.points.size() < model.features.size() ||
-        model.features.candidates != model.features.size() + model.features.invalid)
-        throw Error(where, "corrupt model cache: inconsistent point and keypoint counts");
+    // Verification places the model's points (a view model's keypoints come from its views, not
+    // from them, so the two counts are otherwise unrelated), and the keypoint counts add up.
+    if (model.points.empty()) throw Error(where, "corrupt model cache: no model points");
+    if (model.features.candidates != model.features.size() + model.features.invalid)
+        throw Error(where, "corrupt model cache: inconsistent keypoint counts");
     return model;
 }
 
