@@ -273,6 +273,14 @@ void NeighborGrid::radius_search(const Point& center, float radius, std::vector<
     squared_distances.resize(found);
 }
 
+std::size_t NeighborGrid::largest_cell() const
+{
+    std::size_t largest = 0;
+    for (std::size_t c = 0; c + 1 < cell_begin_.size(); ++c)
+        largest = std::max<std::size_t>(largest, cell_begin_[c + 1] - cell_begin_[c]);
+    return largest;
+}
+
 std::size_t NeighborGrid::candidate_count(const Point& center, float radius) const
 {
     Eigen::Vector3i lo, hi;

@@ -63,15 +63,12 @@ Features describe(std::span<const Point> surface, std::span<const std::uint32_t>
     // One search of the larger support per keypoint, which BOARD and SHOT then share. Holding
     // every keypoint's support at once takes 8 bytes a neighbour: 16 MB on a Kinect scene at the
     // default radii, but 2 GB with a keypoint every 2 mm and 7 GB with supports as wide as the
-    // scene. So when the grid's mean points per cell (a support spans at most 27 cells) says the
-    // supports may hold more than support_budget neighbours, each keypoint's candidates (the
-    // points of the cells its search reads: a bound of its support) are counted, and the keypoints
-    // go in batches of at most that many candidates. Each keypoint's frame and descriptor come
-    // from its own support, so batching changes no output.
+    // scene. So unless the fullest cell says they cannot (a support spans at most 3 cells a side),
+    // each keypoint's candidates (the points of the cells its search reads: a bound of its support)
+    // are counted, and the keypoints go in batches of at most support_budget candidates. Each
+    // keypoint's frame and descriptor come from its own support, so batching changes no output.
     std::vector<std::size_t> batch_begins{0};
-    const double mean_per_cell =
-        double(surface.size()) / double(std::max<std::size_t>(1, surface_grid.occupied_cells()));
-    if (double(keypoints.size()) * 27.0 * mean_per_cell > double(support_budget)) {
+    if (double(keypoints.size()) * 27.0 * double(surface_grid.largest_cell()) > double(support_budget)) {
         std::vector<std::size_t> bounds(keypoints.size());
         tbb::parallel_for(std::size_t(0), keypoints.size(), [&](std::size_t i) {
             bounds[i] = surface_grid.candidate_count(keypoint_points[i], support);

@@ -156,6 +156,7 @@ TEST(DescribeKeypoints, BatchesUnderASmallSupportBudgetChangeNothing)
         EXPECT_EQ(batched.invalid, whole.invalid) << budget;
         EXPECT_EQ(batched.keypoints, whole.keypoints) << budget;
         EXPECT_EQ(batched.frames, whole.frames) << budget;
+        ASSERT_EQ(batched.descriptors.size(), whole.descriptors.size()) << budget;
         EXPECT_EQ(0, std::memcmp(batched.descriptors.data(), whole.descriptors.data(),
                                  whole.descriptors.size() * sizeof(float)))
             << budget;

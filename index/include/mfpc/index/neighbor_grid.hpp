@@ -60,7 +60,7 @@ public:
     std::span<const Point> points() const { return points_; }
     float cell_size() const { return cell_size_; }
     std::size_t size() const { return points_.size(); }
-    std::size_t occupied_cells() const { return cell_x_.size(); }
+    std::size_t largest_cell() const;  // the points of the fullest cell
 
     // Indices (into points()) and squared distances of the points within `radius` of `center`,
     // written into the cleared vectors. The order is fixed (cell by cell, ascending index within
@@ -94,7 +94,7 @@ private:
     // Cells are sorted by (z, y, x), so the cells of one row (fixed y and z) are consecutive and so
     // are their points: a query reads one contiguous range of points per row it touches.
     struct Row {
-        std::uint64_t key;         // row number, cell_key / row_length_; empty_row when unused
+        std::uint64_t key;         // (z - min z) * rows_per_slice_ + y - min y; empty_row when unused
         std::uint32_t cell_begin;  // range of cells_x_ / cell_begin_
         std::uint32_t cell_end;
     };
