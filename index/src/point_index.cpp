@@ -134,9 +134,10 @@ PointIndex::PointIndex(std::span<const Point> points, const PointIndexParams& pa
         };
         detail::sort_by_key(n, int(std::bit_width(key_count - 1)), key_of, point_order_, keys);
     } else {
-        // Leaves too far apart to number (points hundreds of kilometres apart on every axis): the
-        // same order by four stable sorts, offset, z, y, then x, and the occupied leaves numbered
-        // by rank instead, which is all the tables below need of a key.
+        // Leaves too far apart to number (at the default 5 mm voxel, points some ten kilometres
+        // apart on two or three axes: a stray point): the same order by four stable sorts,
+        // offset, z, y, then x, and the occupied leaves numbered by rank instead, which is all the
+        // tables below need of a key.
         struct Entry {
             std::uint32_t leaf[3];  // from lo
             std::uint32_t offset;

@@ -141,7 +141,7 @@ TEST(PointIndex, RejectsPointsItCannotBucket)
     EXPECT_THROW(PointIndex(points, {0.01f}), Error);
     points[3].y() = 1e30f;
     EXPECT_THROW(PointIndex(points, {0.01f}), Error);
-    points[3].y() = 2e6f;  // 2^31 voxels of 1 mm out: beyond OpenVDB's coordinates
+    points[3].y() = 2e6f;  // 2e9 voxels of 1 mm out: beyond the index's 2^30
     EXPECT_THROW(PointIndex(points, {0.001f}), Error);
 }
 
