@@ -9,10 +9,7 @@ Box bounding_box(std::span<const Point> points)
     Box box;
     box.min.setConstant(std::numeric_limits<float>::infinity());
     box.max.setConstant(-std::numeric_limits<float>::infinity());
-    for (const Point& p : points) {
-        box.min = box.min.cwiseMin(p);
-        box.max = box.max.cwiseMax(p);
-    }
+    for (const Point& p : points) box.extend(p);
     return box;
 }
 

@@ -88,15 +88,13 @@ PointIndex::PointIndex(std::span<const Point> points, const PointIndexParams& pa
         [&](const auto& range, Extent e) {
             for (std::size_t i = range.begin(); i < range.end(); ++i) {
                 e.finite &= points[i].allFinite();
-                e.bounds.min = e.bounds.min.cwiseMin(points[i]);
-                e.bounds.max = e.bounds.max.cwiseMax(points[i]);
+                e.bounds.extend(points[i]);
             }
             return e;
         },
         [](Extent a, const Extent& b) {
             a.finite &= b.finite;
-            a.bounds.min = a.bounds.min.cwiseMin(b.bounds.min);
-            a.bounds.max = a.bounds.max.cwiseMax(b.bounds.max);
+            a.bounds.extend(b.bounds);
             return a;
         });
     const Box& bounds = extent.bounds;
@@ -214,11 +212,9 @@ PointIndex::PointIndex(std::span<const Point> points, const PointIndexParams& pa
                 const Point& p = points[point_order_[k]];
                 ordered_points_[k] = p;
                 v.sum += p.cast<double>();
-                v.bounds.min = v.bounds.min.cwiseMin(p);
-                v.bounds.max = v.bounds.max.cwiseMax(p);
+                v.bounds.extend(p);
             }
-            leaf.bounds.min = leaf.bounds.min.cwiseMin(v.bounds.min);
-            leaf.bounds.max = leaf.bounds.max.cwiseMax(v.bounds.max);
+            leaf.bounds.extend(v.bounds);
             const openvdb::Index voxel_offset = openvdb::Index(keys[v.begin] % leaf_voxels);
             for (; offset < voxel_offset; ++offset) ends[offset] = v.begin - leaf.begin;
             mask.setOn(offset);

@@ -397,8 +397,7 @@ std::vector<Emitted> label_runs(const PointIndex& index, const RegionTable& tabl
         // 64 structures, narrowing every leaf against each was an eighth of labelling.
         Box chunk_bounds = leaves[leaf_begin].bounds;
         for (std::size_t leaf = leaf_begin + 1; leaf < leaf_end; ++leaf) {
-            chunk_bounds.min = chunk_bounds.min.cwiseMin(leaves[leaf].bounds.min);
-            chunk_bounds.max = chunk_bounds.max.cwiseMax(leaves[leaf].bounds.max);
+            chunk_bounds.extend(leaves[leaf].bounds);
         }
         narrow(all, chunk_bounds, chunk_reach);
         if (chunk_reach.empty()) return;
@@ -418,8 +417,7 @@ std::vector<Emitted> label_runs(const PointIndex& index, const RegionTable& tabl
                 const std::uint32_t group_end = std::min(l.voxel_end, group + voxels_per_group);
                 Box bounds = voxels[group].bounds;
                 for (std::uint32_t v = group + 1; v < group_end; ++v) {
-                    bounds.min = bounds.min.cwiseMin(voxels[v].bounds.min);
-                    bounds.max = bounds.max.cwiseMax(voxels[v].bounds.max);
+                    bounds.extend(voxels[v].bounds);
                 }
                 const bool group_mixed = narrow(leaf_reach, bounds, group_reach);
                 if (group_reach.empty()) continue;

@@ -223,8 +223,7 @@ ProceduralScene make_procedural_scene(const ProceduralSceneParams& params)
             const Eigen::Vector3f sel((corner & 1) ? 1.f : 0.f, (corner & 2) ? 1.f : 0.f, (corner & 4) ? 1.f : 0.f);
             const Eigen::Vector3f c = object_table.min + sel.cwiseProduct(object_table.size());
             const Point pc = (table_to_camera * (c.cast<double>() - eye)).cast<float>();
-            object_camera.min = object_camera.min.cwiseMin(pc);
-            object_camera.max = object_camera.max.cwiseMax(pc);
+            object_camera.extend(pc);
         }
         outer_camera.min = object_camera.min.array() - 0.10f;
         outer_camera.max = object_camera.max.array() + 0.10f;

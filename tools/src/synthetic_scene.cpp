@@ -276,8 +276,7 @@ Box object_box_in_camera(const SyntheticScene& scene, std::size_t index)
     Box box = bounding_box({});
     for (const Eigen::Vector3f& p : outline(scene.shapes.at(object.shape))) {
         const Eigen::Vector3f q = to_camera * p;
-        box.min = box.min.cwiseMin(q);
-        box.max = box.max.cwiseMax(q);
+        box.extend(q);
     }
     return box;
 }
@@ -326,8 +325,7 @@ FoveationConfig fovea_covering_all(const SyntheticScene& scene)
     for (std::size_t i = 0; i < scene.objects.size(); ++i) {
         if (scene.objects[i].distractor) continue;
         const Box object = object_box_in_camera(scene, i);
-        all.min = all.min.cwiseMin(object.min);
-        all.max = all.max.cwiseMax(object.max);
+        all.extend(object);
     }
     if (all.valid()) config.structures.push_back(structure_around(all, config.levels, "all instances"));
     return config;

@@ -31,6 +31,18 @@ struct Box {
     {
         return (other.min.array() >= min.array()).all() && (other.max.array() <= max.array()).all();
     }
+    // Grows the box to hold `p` (or all of `other`) too. An invalid box (bounding_box of no points)
+    // grows to exactly that.
+    void extend(const Eigen::Vector3f& p)
+    {
+        min = min.cwiseMin(p);
+        max = max.cwiseMax(p);
+    }
+    void extend(const Box& other)
+    {
+        min = min.cwiseMin(other.min);
+        max = max.cwiseMax(other.max);
+    }
     bool intersects(const Box& other) const
     {
         return (other.min.array() <= max.array()).all() && (other.max.array() >= min.array()).all();
