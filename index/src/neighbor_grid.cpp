@@ -195,6 +195,19 @@ bool NeighborGrid::cells_range(const Row* row, int x0, int x1, std::uint32_t& be
 }
 
 template <class Visit>
+void NeighborGrid::for_each_search_range(const Point& center, float radius, Visit&& visit) const
+{
+    Eigen::Vector3i lo, hi;
+    if (!search_box(center, radius, lo, hi)) return;
+    for (int z = lo.z(); z <= hi.z(); ++z) {
+        for (int y = lo.y(); y <= hi.y(); ++y) {
+            std::uint32_t begin = 0, end = 0;
+            if (row_range(y, z, lo.x(), hi.x(), begin, end)) visit(begin, end);
+        }
+    }
+}
+
+template <class Visit>
 void NeighborGrid::for_each_shell_range(const Eigen::Vector3i& c, int ring, Visit&& visit) const
 {
     // Rows outside the occupied range are empty: a wide shell around a far centre skips them.
@@ -239,8 +252,6 @@ void NeighborGrid::radius_search(const Point& center, float radius, std::vector<
 {
     indices.clear();
     squared_distances.clear();
-    Eigen::Vector3i lo, hi;
-    if (!search_box(center, radius, lo, hi)) return;
     const float radius2 = radius * radius;
     // The candidates' ranges first, so the outputs grow once. Then every candidate is written and
     // only those within the radius are kept (the count moves past them): a branch per candidate,
@@ -250,14 +261,10 @@ void NeighborGrid::radius_search(const Point& center, float radius, std::vector<
     thread_local std::vector<std::pair<std::uint32_t, std::uint32_t>> ranges;
     ranges.clear();
     std::size_t candidates = 0;
-    for (int z = lo.z(); z <= hi.z(); ++z) {
-        for (int y = lo.y(); y <= hi.y(); ++y) {
-            std::uint32_t begin = 0, end = 0;
-            if (!row_range(y, z, lo.x(), hi.x(), begin, end)) continue;
-            ranges.emplace_back(begin, end);
-            candidates += end - begin;
-        }
-    }
+    for_each_search_range(center, radius, [&](std::uint32_t begin, std::uint32_t end) {
+        ranges.emplace_back(begin, end);
+        candidates += end - begin;
+    });
     indices.resize(candidates);
     squared_distances.resize(candidates);
     std::size_t found = 0;
@@ -283,15 +290,8 @@ std::size_t NeighborGrid::largest_cell() const
 
 std::size_t NeighborGrid::candidate_count(const Point& center, float radius) const
 {
-    Eigen::Vector3i lo, hi;
-    if (!search_box(center, radius, lo, hi)) return 0;
     std::size_t count = 0;
-    for (int z = lo.z(); z <= hi.z(); ++z) {
-        for (int y = lo.y(); y <= hi.y(); ++y) {
-            std::uint32_t begin = 0, end = 0;
-            if (row_range(y, z, lo.x(), hi.x(), begin, end)) count += end - begin;
-        }
-    }
+    for_each_search_range(center, radius, [&](std::uint32_t begin, std::uint32_t end) { count += end - begin; });
     return count;
 }
 

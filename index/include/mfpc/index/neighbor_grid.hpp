@@ -116,6 +116,9 @@ private:
     bool row_range(int y, int z, int x0, int x1, std::uint32_t& begin, std::uint32_t& end) const;
     // The same in a row already found (none when null, or when x1 < x0).
     bool cells_range(const Row* row, int x0, int x1, std::uint32_t& begin, std::uint32_t& end) const;
+    // Calls visit(begin, end) for the point ranges of search_box's cells, row by row.
+    template <class Visit>
+    void for_each_search_range(const Point& center, float radius, Visit&& visit) const;
     // Calls visit(begin, end) for the point ranges of the cells at Chebyshev distance `ring` from
     // cell c: rows on the shell's faces whole, the others at their two ends.
     template <class Visit>
