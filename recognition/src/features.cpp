@@ -30,6 +30,35 @@ std::span<const float> Features::descriptor(std::size_t i) const
 
 namespace {
 
+// One search of the larger support per keypoint, which BOARD and SHOT then share. Holding every
+// keypoint's support at once takes 8 bytes a neighbour: 16 MB on a Kinect scene at the default
+// radii, but 2 GB with a keypoint every 2 mm and 7 GB with supports as wide as the scene. So
+// unless the fullest cell says they cannot (a support spans at most 3 cells a side), each
+// keypoint's candidates (the points of the cells its search reads: a bound of its support) are
+// counted, and the keypoints go in batches of at most `budget` candidates. Returns where each
+// batch begins, then the end. Each keypoint's frame and descriptor come from its own support, so
+// batching changes no output.
+std::vector<std::size_t> support_batches(const NeighborGrid& grid, std::span<const Point> keypoints, float support,
+                                         std::size_t budget)
+{
+    std::vector<std::size_t> begins{0};
+    if (double(keypoints.size()) * 27.0 * double(grid.largest_cell()) > double(budget)) {
+        std::vector<std::size_t> bounds(keypoints.size());
+        tbb::parallel_for(std::size_t(0), keypoints.size(),
+                          [&](std::size_t i) { bounds[i] = grid.candidate_count(keypoints[i], support); });
+        std::size_t held = 0;
+        for (std::size_t i = 0; i < keypoints.size(); ++i) {
+            if (held > 0 && held + bounds[i] > budget) {
+                begins.push_back(i);
+                held = 0;
+            }
+            held += bounds[i];
+        }
+    }
+    begins.push_back(keypoints.size());
+    return begins;
+}
+
 // describe_keypoints over either neighbour index of the normals' source.
 template <class Source>
 Features describe(std::span<const Point> surface, std::span<const std::uint32_t> keypoints, const Source& normal_source,
@@ -60,29 +89,8 @@ Features describe(std::span<const Point> surface, std::span<const std::uint32_t>
     BoardParams board_params;
     board_params.radius = params.lrf_radius;
 
-    // One search of the larger support per keypoint, which BOARD and SHOT then share. Holding
-    // every keypoint's support at once takes 8 bytes a neighbour: 16 MB on a Kinect scene at the
-    // default radii, but 2 GB with a keypoint every 2 mm and 7 GB with supports as wide as the
-    // scene. So unless the fullest cell says they cannot (a support spans at most 3 cells a side),
-    // each keypoint's candidates (the points of the cells its search reads: a bound of its support)
-    // are counted, and the keypoints go in batches of at most support_budget candidates. Each
-    // keypoint's frame and descriptor come from its own support, so batching changes no output.
-    std::vector<std::size_t> batch_begins{0};
-    if (double(keypoints.size()) * 27.0 * double(surface_grid.largest_cell()) > double(support_budget)) {
-        std::vector<std::size_t> bounds(keypoints.size());
-        tbb::parallel_for(std::size_t(0), keypoints.size(), [&](std::size_t i) {
-            bounds[i] = surface_grid.candidate_count(keypoint_points[i], support);
-        });
-        std::size_t held = 0;
-        for (std::size_t i = 0; i < keypoints.size(); ++i) {
-            if (held > 0 && held + bounds[i] > support_budget) {
-                batch_begins.push_back(i);
-                held = 0;
-            }
-            held += bounds[i];
-        }
-    }
-    batch_begins.push_back(keypoints.size());
+    const std::vector<std::size_t> batch_begins =
+        support_batches(surface_grid, keypoint_points, support, support_budget);
     time.normals_ms += elapsed_ms(start);
 
     for (std::size_t b = 0; b + 1 < batch_begins.size(); ++b) {
