@@ -177,6 +177,7 @@ void check_recognition_params(const RecognitionParams& p, const std::string& sou
     check_fraction(p.verify.min_inlier_fraction, source, "verify.min_inlier_fraction");
     check_fraction(p.verify.min_coverage, source, "verify.min_coverage");
     check_fraction(p.verify.min_thickness_ratio, source, "verify.min_thickness_ratio");
+    check_fraction(p.verify.max_continuation, source, "verify.max_continuation");
     check_positive(p.verify.free_space_margin, source, "verify.free_space_margin");
     check_fraction(p.verify.max_free_space_fraction, source, "verify.max_free_space_fraction");
     check_positive(p.verify.merge_distance, source, "verify.merge_distance");
@@ -228,6 +229,7 @@ RecognitionParams parse_recognition_params(std::string_view json_text, const std
             q.number("min_inlier_fraction", p.verify.min_inlier_fraction);
             q.number("min_coverage", p.verify.min_coverage);
             q.number("min_thickness_ratio", p.verify.min_thickness_ratio);
+            q.number("max_continuation", p.verify.max_continuation);
             q.number("free_space_margin", p.verify.free_space_margin);
             q.number("max_free_space_fraction", p.verify.max_free_space_fraction);
             q.boolean("merge", p.verify.merge);
@@ -276,6 +278,7 @@ std::string to_json(const RecognitionParams& p)
           {"min_inlier_fraction", clean(p.verify.min_inlier_fraction)},
           {"min_coverage", clean(p.verify.min_coverage)},
           {"min_thickness_ratio", clean(p.verify.min_thickness_ratio)},
+          {"max_continuation", clean(p.verify.max_continuation)},
           {"free_space_margin", clean(p.verify.free_space_margin)},
           {"max_free_space_fraction", clean(p.verify.max_free_space_fraction)},
           {"merge", p.verify.merge},

@@ -268,6 +268,8 @@ TEST(RecognitionParams, DefaultsRoundTripAndBadValuesAreNamed)
     EXPECT_NE(params_error(R"({"match_exact": true})").find("p.json: match_exact: renamed match_search"), std::string::npos);
     EXPECT_EQ(parse_recognition_params(R"({"match_search": "kdtree"})", "p.json").match.search, MatchSearch::kdtree);
     EXPECT_NE(params_error(R"({"verify": {"min_coverage": 2}})").find("verify.min_coverage"), std::string::npos);
+    EXPECT_NE(params_error(R"({"verify": {"max_continuation": -0.1}})").find("verify.max_continuation"), std::string::npos);
+    EXPECT_EQ(parse_recognition_params(R"({"verify": {"max_continuation": 1}})", "p.json").verify.max_continuation, 1.0f);
     EXPECT_NE(params_error("[1, 2]").find("must be a JSON object"), std::string::npos);
     EXPECT_NE(params_error("{").find("invalid JSON"), std::string::npos);
 }
@@ -556,6 +558,7 @@ TEST(RefineAndVerify, TheDepthImageChangesNothing)
         EXPECT_EQ(by_image[i].free_space_violation, by_grid[i].free_space_violation) << i;
         EXPECT_EQ(by_image[i].rmse, by_grid[i].rmse) << i;
         EXPECT_EQ(by_image[i].thickness_ratio, by_grid[i].thickness_ratio) << i;
+        EXPECT_EQ(by_image[i].continuation, by_grid[i].continuation) << i;
     }
 }
 

@@ -150,6 +150,7 @@ void run_recognize(const RecognizeOptions& options, const GlobalOptions& global)
                                        {"coverage", instance.coverage},
                                        {"free_space_violation", instance.free_space_violation},
                                        {"thickness_ratio", instance.thickness_ratio},
+                                       {"continuation", instance.continuation},
                                        {"rmse", instance.rmse}};
         if (evaluation) {
             item["ground_truth_instance"] = evaluation->instance_match[i];

@@ -18,6 +18,7 @@ struct Instance {
     float coverage = 0.0f;                      // inlier model points / model points facing the camera
     float free_space_violation = 0.0f;
     float thickness_ratio = 0.0f;                // fitting points' spread off their best plane / the facing side's
+    float continuation = 0.0f;                   // of the rim probes settled either way, the fraction the scene goes on at
     float rmse = 0.0f;                           // of the refined fit (metres)
 };
 

@@ -71,6 +71,11 @@ struct VerifyParams {
     // laid flush on a table fits it perfectly while the rest of the model, under the table, is
     // hidden, so neither fitness nor free space refutes it. A flat side (under 2 mm) passes.
     float min_thickness_ratio = 0.5f;
+    // Rim probes 1.5 cm beyond the edges of the fitting part of the model: the fraction where the
+    // scene's surface goes on (of those where it goes on or the sensor sees past them). A pose
+    // slid along the object's face, or turned on it, leaves part of the object unexplained just
+    // beyond its edges; a true pose ends where the object does. 1: off.
+    float max_continuation = 0.1f;
     float free_space_margin = 0.01f;     // a model point this far in front of the observed surface
     float max_free_space_fraction = 0.1f;  // ... on this fraction of points rejects the instance
     bool merge = true;                   // merge instances whose placed models overlap:
