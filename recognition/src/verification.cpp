@@ -164,17 +164,29 @@ bool overlaps(std::span<const Point> placed_points, const NeighborGrid& other, c
     return float(close) >= verify.merge_overlap * float(placed_points.size());
 }
 
-// The depth the sensor observed through p's pixel (p in the camera frame); NaN without a camera,
-// behind the camera, off the image or where it had no return.
-float observed_depth(const SceneEvidence& scene, const Point& p)
+// The depth the sensor observed through p's pixel (p in the camera frame), and the nearest
+// observed within one pixel of it; NaN without a camera, behind the camera, off the image or
+// where it had no return.
+struct Observed {
+    float depth = std::numeric_limits<float>::quiet_NaN();
+    float nearest_around = std::numeric_limits<float>::quiet_NaN();
+};
+Observed observed_depth(const SceneEvidence& scene, const Point& p)
 {
-    constexpr float none = std::numeric_limits<float>::quiet_NaN();
-    if (!scene.camera || !(p.z() > 0.0f)) return none;
+    Observed observed;
+    if (!scene.camera || !(p.z() > 0.0f)) return observed;
     const Camera& c = *scene.camera;
     const long u = std::lround(c.fx * p.x() / p.z() + c.cx);
     const long v = std::lround(c.fy * p.y() / p.z() + c.cy);
-    if (u < 0 || v < 0 || u >= long(c.width) || v >= long(c.height)) return none;
-    return scene.depth[std::size_t(v) * c.width + std::size_t(u)];
+    if (u < 0 || v < 0 || u >= long(c.width) || v >= long(c.height)) return observed;
+    observed.depth = scene.depth[std::size_t(v) * c.width + std::size_t(u)];
+    if (!std::isfinite(observed.depth)) return observed;
+    observed.nearest_around = observed.depth;
+    for (long y = std::max(v - 1, 0L); y <= std::min(v + 1, long(c.height) - 1); ++y)
+        for (long x = std::max(u - 1, 0L); x <= std::min(u + 1, long(c.width) - 1); ++x)
+            observed.nearest_around =
+                std::fmin(observed.nearest_around, scene.depth[std::size_t(y) * c.width + std::size_t(x)]);
+    return observed;
 }
 
 // Rim probes: where the model's surface would go on if the object were bigger. Each (thinned)
@@ -246,7 +258,7 @@ RimEvidence rim_evidence(const Pose& pose, std::span<const Probe> probes, std::s
         const Point q = pose * probes[j].at;
         scratch.placed[j] = q;
         if (scene.camera) {
-            const float observed = observed_depth(scene, q);
+            const float observed = observed_depth(scene, q).depth;
             if (!std::isfinite(observed) || observed < q.z() - verify.free_space_margin) continue;
             if (observed > q.z() + verify.free_space_margin) {
                 ++evidence.free;
@@ -375,10 +387,13 @@ std::vector<Instance> refine_and_verify(std::vector<Instance> instances, std::sp
         for (std::size_t i = 0; i < points.size(); ++i) {
             const Point& p = at[i];
             bool hidden = false;
-            if (const float observed = observed_depth(scene, p); std::isfinite(observed)) {
+            if (const Observed observed = observed_depth(scene, p); std::isfinite(observed.depth)) {
                 ++projected;
-                if (observed > p.z() + verify.free_space_margin) ++violations;
-                hidden = observed < p.z() - verify.free_space_margin;
+                // Every pixel around must show a surface behind it: a point on the object's
+                // outline (a side seen edge on, most of all) projects to either side of it as
+                // its pixel rounds, and the ray through the pixel beside may pass the object.
+                if (observed.nearest_around > p.z() + verify.free_space_margin) ++violations;
+                hidden = observed.depth < p.z() - verify.free_space_margin;
             }
             const bool faces = faces_camera(instance.transform, p, normals[i]);
             if (faces) {
