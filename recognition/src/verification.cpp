@@ -215,18 +215,21 @@ std::vector<Probe> rim_probes(std::span<const Point> points, std::span<const Poi
     if (points.empty()) return probes;
     // `points` are some of model_points: a probe near one of them is on the model. Each point's
     // neighbours among them, as far as its probes reach, settle most of its probes; the rest ask
-    // the whole model.
+    // the whole model. One point's neighbours at a time: unthinned (model_voxel 0), a dense model
+    // has thousands each.
     constexpr float on_model = 0.6f * rim_distance;
     constexpr float reach = rim_distance + on_model;
-    const Neighborhoods near = NeighborGrid(points, reach).radius_neighborhoods(points, reach);
+    const NeighborGrid thinned(points, reach);
     std::optional<NeighborGrid> model;
+    std::vector<std::uint32_t> neighbours;
+    std::vector<float> squared_distances;
     for (std::uint32_t i = 0; i < points.size(); ++i) {
         if (!normals[i].allFinite() || normals[i].squaredNorm() == 0.0f) continue;
         const Eigen::Vector3f n = normals[i].normalized();
         const Eigen::Vector3f a =
             (std::abs(n.x()) < 0.9f ? Eigen::Vector3f::UnitX() : Eigen::Vector3f::UnitY()).cross(n).normalized();
         const Eigen::Vector3f b = n.cross(a);
-        const std::span<const std::uint32_t> neighbours = near.indices_of(i);
+        thinned.radius_search(points[i], reach, neighbours, squared_distances);
         for (int d = 0; d < 8; ++d) {
             const float angle = float(d) * float(M_PI) / 4.0f;
             const Point at = points[i] + rim_distance * (std::cos(angle) * a + std::sin(angle) * b);
