@@ -180,6 +180,18 @@ PointCloud scan(const Pose& pose, const Camera& camera, float max_incidence = 90
     return cloud;
 }
 
+// One hypothesis at `pose`, verified without ICP (so it stays where it is put).
+std::vector<Instance> verify_unrefined(const Pose& pose, const Box& model, const SceneEvidence& evidence,
+                                       const VerifyParams& verify = VerifyParams{})
+{
+    RefineParams no_icp;
+    no_icp.enabled = false;
+    return refine_and_verify({hypothesis(pose, 10.0f)}, model.points, model.normals, evidence, no_icp, verify);
+}
+
+// The box turned with one side nearly edge on to the camera (84 degrees).
+const Pose edge_on = pose_at({0.02f, -0.01f, 0.9f}, 84.0f);
+
 // A pose slid along its object's face explains the part of the object it covers and leaves the
 // rest just past its edges: the rim probes find the box going on beyond the slid pose's end, and
 // reject it. At the true pose the sensor sees past every probe: the box ends where the model does.
@@ -193,24 +205,18 @@ TEST(RefineAndVerify, APoseSlidAlongItsObjectIsRejectedByWhatGoesOnPastIt)
     ASSERT_GT(scene.size(), 2000u);
     const NeighborGrid grid(scene.points, 0.005f);
     const Pose slid = truth * pose_at({0.0f, 0.025f, 0.0f});
-    RefineParams no_icp;
-    no_icp.enabled = false;
     VerifyParams off;
     off.max_continuation = 1.0f;
     for (const bool with_camera : {true, false}) {
         SCOPED_TRACE(with_camera ? "camera" : "no camera");
         const SceneEvidence evidence =
             make_scene_evidence(scene, grid, with_camera ? std::optional<Camera>(camera) : std::nullopt);
-        const std::vector<Instance> at_truth =
-            refine_and_verify({hypothesis(truth, 10.0f)}, model.points, model.normals, evidence, no_icp, VerifyParams{});
+        const std::vector<Instance> at_truth = verify_unrefined(truth, model, evidence);
         ASSERT_EQ(at_truth.size(), 1u);
         EXPECT_EQ(at_truth[0].continuation, 0.0f);
-        EXPECT_TRUE(
-            refine_and_verify({hypothesis(slid, 10.0f)}, model.points, model.normals, evidence, no_icp, VerifyParams{})
-                .empty());
+        EXPECT_TRUE(verify_unrefined(slid, model, evidence).empty());
         // The other tests pass it: only the rim probes see that the box goes on.
-        const std::vector<Instance> slid_passes =
-            refine_and_verify({hypothesis(slid, 10.0f)}, model.points, model.normals, evidence, no_icp, off);
+        const std::vector<Instance> slid_passes = verify_unrefined(slid, model, evidence, off);
         ASSERT_EQ(slid_passes.size(), 1u);
         EXPECT_GT(slid_passes[0].continuation, VerifyParams{}.max_continuation);
     }
@@ -224,9 +230,8 @@ TEST(RefineAndVerify, APoseSlidAlongItsObjectIsRejectedByWhatGoesOnPastIt)
 TEST(RefineAndVerify, ATruePoseDoesNotViolateFreeSpaceAlongItsOutline)
 {
     const Box model = box_model();
-    const Pose truth = pose_at({0.02f, -0.01f, 0.9f}, 84.0f);
     const Camera camera;
-    PointCloud scene = scan(truth, camera);
+    PointCloud scene = scan(edge_on, camera);
     // The wall, 20 cm behind the box, in every pixel the box leaves.
     std::vector<std::uint8_t> taken(std::size_t(camera.width) * camera.height, 0);
     for (std::size_t i = 0; i < scene.size(); ++i) taken[scene.source_position(i)] = 1;
@@ -239,13 +244,10 @@ TEST(RefineAndVerify, ATruePoseDoesNotViolateFreeSpaceAlongItsOutline)
     }
     const NeighborGrid grid(scene.points, 0.005f);
     const SceneEvidence evidence = make_scene_evidence(scene, grid, camera);
-    RefineParams no_icp;
-    no_icp.enabled = false;
-    const std::vector<Instance> found =
-        refine_and_verify({hypothesis(truth, 10.0f)}, model.points, model.normals, evidence, no_icp, VerifyParams{});
+    const std::vector<Instance> found = verify_unrefined(edge_on, model, evidence);
     ASSERT_EQ(found.size(), 1u);
     EXPECT_EQ(found[0].free_space_violation, 0.0f);
-    Pose nearer = truth;
+    Pose nearer = edge_on;
     nearer.translation() *= (0.9f - 0.03f) / 0.9f;
     VerifyParams lax;  // every limit open: only the statistics are wanted
     lax.min_inlier_fraction = 0.0f;
@@ -253,8 +255,7 @@ TEST(RefineAndVerify, ATruePoseDoesNotViolateFreeSpaceAlongItsOutline)
     lax.min_thickness_ratio = 0.0f;
     lax.max_continuation = 1.0f;
     lax.max_free_space_fraction = 1.0f;
-    const std::vector<Instance> in_front =
-        refine_and_verify({hypothesis(nearer, 10.0f)}, model.points, model.normals, evidence, no_icp, lax);
+    const std::vector<Instance> in_front = verify_unrefined(nearer, model, evidence, lax);
     ASSERT_EQ(in_front.size(), 1u);
     EXPECT_GT(in_front[0].free_space_violation, VerifyParams{}.max_free_space_fraction);
 }
@@ -265,15 +266,10 @@ TEST(RefineAndVerify, ATruePoseDoesNotViolateFreeSpaceAlongItsOutline)
 // with 54% coverage, and it was refused.
 TEST(RefineAndVerify, ASideSeenEdgeOnIsNoEvidenceAgainstTheTruePose)
 {
-    const Box model = box_model();
-    const Pose truth = pose_at({0.02f, -0.01f, 0.9f}, 84.0f);
     const Camera camera;
-    const PointCloud scene = scan(truth, camera, 80.0f);
+    const PointCloud scene = scan(edge_on, camera, 80.0f);
     const NeighborGrid grid(scene.points, 0.005f);
-    RefineParams no_icp;
-    no_icp.enabled = false;
-    const std::vector<Instance> found = refine_and_verify({hypothesis(truth, 10.0f)}, model.points, model.normals,
-                                                          make_scene_evidence(scene, grid, camera), no_icp, VerifyParams{});
+    const std::vector<Instance> found = verify_unrefined(edge_on, box_model(), make_scene_evidence(scene, grid, camera));
     ASSERT_EQ(found.size(), 1u);
     EXPECT_GT(found[0].coverage, 0.9f);
     EXPECT_GT(found[0].fitness, 0.9f);
