@@ -5,6 +5,7 @@
 #include <functional>
 #include <limits>
 #include <memory>
+#include <optional>
 #include <string>
 
 #include <Eigen/Eigenvalues>
@@ -173,29 +174,36 @@ bool overlaps(std::span<const Point> placed_points, const NeighborGrid& other, c
     return float(close) >= verify.merge_overlap * float(placed_points.size());
 }
 
-// The depth the sensor observed through p's pixel (p in the camera frame), and the nearest
-// observed within one pixel of it; NaN without a camera, behind the camera, off the image or
-// where it had no return.
-struct Observed {
-    float depth = std::numeric_limits<float>::quiet_NaN();
-    float nearest_around = std::numeric_limits<float>::quiet_NaN();
-};
-Observed observed_depth(const SceneEvidence& scene, const Point& p)
+// The pixel of the depth image that p (camera frame) projects to; none without a camera, behind
+// the camera or off the image.
+constexpr std::size_t no_pixel = std::numeric_limits<std::size_t>::max();
+std::size_t pixel_of(const SceneEvidence& scene, const Point& p)
 {
-    Observed observed;
-    if (!scene.camera || !(p.z() > 0.0f)) return observed;
+    if (!scene.camera || !(p.z() > 0.0f)) return no_pixel;
     const Camera& c = *scene.camera;
     const long u = std::lround(c.fx * p.x() / p.z() + c.cx);
     const long v = std::lround(c.fy * p.y() / p.z() + c.cy);
-    if (u < 0 || v < 0 || u >= long(c.width) || v >= long(c.height)) return observed;
-    observed.depth = scene.depth[std::size_t(v) * c.width + std::size_t(u)];
-    if (!std::isfinite(observed.depth)) return observed;
-    observed.nearest_around = observed.depth;
-    for (long y = std::max(v - 1, 0L); y <= std::min(v + 1, long(c.height) - 1); ++y)
-        for (long x = std::max(u - 1, 0L); x <= std::min(u + 1, long(c.width) - 1); ++x)
-            observed.nearest_around =
-                std::fmin(observed.nearest_around, scene.depth[std::size_t(y) * c.width + std::size_t(x)]);
-    return observed;
+    if (u < 0 || v < 0 || u >= long(c.width) || v >= long(c.height)) return no_pixel;
+    return std::size_t(v) * c.width + std::size_t(u);
+}
+
+// The depth the sensor observed through p's pixel; NaN where there is none or it had no return.
+float observed_depth(const SceneEvidence& scene, const Point& p)
+{
+    const std::size_t pixel = pixel_of(scene, p);
+    return pixel == no_pixel ? std::numeric_limits<float>::quiet_NaN() : scene.depth[pixel];
+}
+
+// The nearest depth observed in a pixel and the 8 around it (no returns skipped).
+float nearest_depth_around(const SceneEvidence& scene, std::size_t pixel)
+{
+    const Camera& c = *scene.camera;
+    const std::size_t u = pixel % c.width, v = pixel / c.width;
+    float nearest = scene.depth[pixel];
+    for (std::size_t y = v > 0 ? v - 1 : 0; y <= std::min<std::size_t>(v + 1, c.height - 1); ++y)
+        for (std::size_t x = u > 0 ? u - 1 : 0; x <= std::min<std::size_t>(u + 1, c.width - 1); ++x)
+            nearest = std::fmin(nearest, scene.depth[y * c.width + x]);
+    return nearest;
 }
 
 // Rim probes: where the model's surface would go on if the object were bigger. Each (thinned)
@@ -270,7 +278,7 @@ RimEvidence rim_evidence(const Pose& pose, std::span<const Probe> probes, std::s
         const Point q = pose * probes[j].at;
         scratch.placed[j] = q;
         if (scene.camera) {
-            const float observed = observed_depth(scene, q).depth;
+            const float observed = observed_depth(scene, q);
             if (!std::isfinite(observed) || observed < q.z() - verify.free_space_margin) continue;
             if (observed > q.z() + verify.free_space_margin) {
                 ++evidence.free;
@@ -354,8 +362,10 @@ std::vector<Instance> refine_and_verify(std::vector<Instance> instances, std::sp
     std::vector<std::uint8_t> settled;  // per claim
     bool any_settled = false;
     Scratch scratch(points.size());
-    const std::vector<Probe> probes = verify.enabled ? rim_probes(points, normals, model_points) : std::vector<Probe>{};
-    Scratch probe_scratch(probes.size());
+    // The rim probes, made when a hypothesis first passes every other test (in a scene without
+    // the object, none does).
+    std::optional<std::vector<Probe>> probes;
+    std::optional<Scratch> probe_scratch;
     for (std::size_t n = 0; n < instances.size(); ++n) {
         Instance& instance = instances[n];
         if (verify.enabled) place(instance.transform, points, scratch.placed);  // the start, for both checks
@@ -399,13 +409,13 @@ std::vector<Instance> refine_and_verify(std::vector<Instance> instances, std::sp
         for (std::size_t i = 0; i < points.size(); ++i) {
             const Point& p = at[i];
             bool hidden = false;
-            if (const Observed observed = observed_depth(scene, p); std::isfinite(observed.depth)) {
+            if (const std::size_t pixel = pixel_of(scene, p); pixel != no_pixel && std::isfinite(scene.depth[pixel])) {
                 ++projected;
                 // Every pixel around must show a surface behind it: a point on the object's
                 // outline (a side seen edge on, most of all) projects to either side of it as
                 // its pixel rounds, and the ray through the pixel beside may pass the object.
-                if (observed.nearest_around > p.z() + verify.free_space_margin) ++violations;
-                hidden = observed.depth < p.z() - verify.free_space_margin;
+                if (nearest_depth_around(scene, pixel) > p.z() + verify.free_space_margin) ++violations;
+                hidden = scene.depth[pixel] < p.z() - verify.free_space_margin;
             }
             const bool faces = faces_camera(instance.transform, p, normals[i]);
             if (faces) {
@@ -428,14 +438,18 @@ std::vector<Instance> refine_and_verify(std::vector<Instance> instances, std::sp
         instance.fitness = visible ? float(inliers) / float(visible) : 0.0f;
         instance.coverage = facing ? float(inliers) / float(facing) : 0.0f;
         instance.free_space_violation = projected ? float(violations) / float(projected) : 0.0f;
-        const RimEvidence rim = rim_evidence(instance.transform, probes, scratch.nearest, scene, verify, probe_scratch);
-        const std::size_t rim_settled = rim.continued + rim.free;
-        instance.continuation = rim_settled ? float(rim.continued) / float(rim_settled) : 0.0f;
         if (instance.fitness < verify.min_inlier_fraction || instance.coverage < verify.min_coverage ||
             instance.free_space_violation > verify.max_free_space_fraction ||
-            instance.thickness_ratio < verify.min_thickness_ratio ||
-            (rim_settled >= min_rim_evidence && instance.continuation > verify.max_continuation))
+            instance.thickness_ratio < verify.min_thickness_ratio)
             continue;
+        if (!probes) {
+            probes = rim_probes(points, normals, model_points);
+            probe_scratch.emplace(probes->size());
+        }
+        const RimEvidence rim = rim_evidence(instance.transform, *probes, scratch.nearest, scene, verify, *probe_scratch);
+        const std::size_t rim_settled = rim.continued + rim.free;
+        instance.continuation = rim_settled ? float(rim.continued) / float(rim_settled) : 0.0f;
+        if (rim_settled >= min_rim_evidence && instance.continuation > verify.max_continuation) continue;
         accepted.push_back(n);
         if (verify.merge) {
             claimed_points.push_back(at);
