@@ -1,8 +1,8 @@
 // Recognition benchmarks (issue: recognition pipeline): PCL 1.13's correspondence-grouping pipeline
-// (the PCL tutorial "3D Object Recognition based on Correspondence Grouping", step for step) against
-// ours (mfpc::recognize), on the same finite points of the same scene, at the same thread count, in
-// this process. Printed after the runs, per scene and thread count, from the medians of the
-// repetitions:
+// (the PCL tutorial "3D Object Recognition based on Correspondence Grouping", step for step, in
+// pcl_baseline.hpp) against ours (mfpc::recognize), on the same finite points of the same scene, at
+// the same thread count, in this process. Printed after the runs, per scene and thread count, from
+// the medians of the repetitions:
 //  - end to end (scene side): PCL / ours plain (defaults: refine and verify on), PCL / ours
 //    like-for-like (refine and verify off; PCL has neither), PCL / ours tutorial-matching (also
 //    scene-to-model nearest neighbour, as PCL), and PCL plain / ours mfpc (foveated scene);
@@ -18,7 +18,6 @@
 // Run: build/release/bench/bench_recognition [--benchmark_repetitions=N] [--benchmark_filter=...]
 
 #include <algorithm>
-#include <chrono>
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
@@ -28,15 +27,8 @@
 #include <utility>
 #include <vector>
 
-#include <pcl/correspondence.h>
-#include <pcl/features/board.h>
-#include <pcl/features/normal_3d_omp.h>
-#include <pcl/features/shot_omp.h>
-#include <pcl/filters/uniform_sampling.h>
-#include <pcl/kdtree/kdtree_flann.h>
 #include <pcl/point_cloud.h>
 #include <pcl/point_types.h>
-#include <pcl/recognition/cg/hough_3d.h>
 #include <tbb/global_control.h>
 
 #include "bench_support.hpp"
@@ -48,149 +40,21 @@
 #include "mfpc/recognition/matching.hpp"
 #include "mfpc/recognition/model.hpp"
 #include "mfpc/recognition/recognize.hpp"
+#include "pcl_baseline.hpp"
 #include "shared_data.hpp"
 
 namespace mfpc {
 namespace {
 
-using PclPoint = pcl::PointXYZ;
-using PclNormal = pcl::Normal;
-using PclDescriptor = pcl::SHOT352;
-using PclFrame = pcl::ReferenceFrame;
-using Clock = std::chrono::steady_clock;
-
-double elapsed_ms(Clock::time_point since)
-{
-    return std::chrono::duration<double, std::milli>(Clock::now() - since).count();
-}
-
-// ---------------------------------------------------------------------------------------------
-// PCL's pipeline, as the tutorial writes it (geometry only: PointXYZ instead of PointXYZRGBA).
-
-struct PclParams {
-    int normal_k = 10;
-    float model_sampling = 0.01f;
-    float scene_sampling = 0.03f;
-    float shot_radius = 0.02f;
-    float lrf_radius = 0.015f;
-    float match_threshold = 0.25f;  // squared SHOT distance
-    float hough_bin = 0.01f;
-    float hough_threshold = 5.0f;
-};
-
-struct PclStageTimes {
-    double normals = 0, keypoints = 0, descriptors = 0, lrf = 0, match = 0, group = 0;
-};
-
-// One cloud's features: normals of every point, uniform-sampling keypoints, SHOT over the full
-// cloud (SHOT's own frames), BOARD frames of the keypoints (for Hough).
-struct PclFeatures {
-    pcl::PointCloud<PclNormal>::Ptr normals{new pcl::PointCloud<PclNormal>};
-    pcl::PointCloud<PclPoint>::Ptr keypoints{new pcl::PointCloud<PclPoint>};
-    pcl::PointCloud<PclDescriptor>::Ptr descriptors{new pcl::PointCloud<PclDescriptor>};
-    pcl::PointCloud<PclFrame>::Ptr frames{new pcl::PointCloud<PclFrame>};
-};
-
-PclFeatures pcl_features(const pcl::PointCloud<PclPoint>::ConstPtr& cloud, float sampling, const PclParams& params,
-                         int threads, PclStageTimes& times)
-{
-    PclFeatures out;
-    auto t = Clock::now();
-    pcl::NormalEstimationOMP<PclPoint, PclNormal> normals;
-    normals.setNumberOfThreads(unsigned(threads));
-    normals.setKSearch(params.normal_k);
-    normals.setInputCloud(cloud);
-    normals.compute(*out.normals);
-    times.normals += elapsed_ms(t);
-
-    t = Clock::now();
-    pcl::UniformSampling<PclPoint> sampling_filter;
-    sampling_filter.setInputCloud(cloud);
-    sampling_filter.setRadiusSearch(sampling);
-    sampling_filter.filter(*out.keypoints);
-    times.keypoints += elapsed_ms(t);
-
-    t = Clock::now();
-    pcl::SHOTEstimationOMP<PclPoint, PclNormal, PclDescriptor> shot;
-    shot.setNumberOfThreads(unsigned(threads));
-    shot.setRadiusSearch(params.shot_radius);
-    shot.setInputCloud(out.keypoints);
-    shot.setInputNormals(out.normals);
-    shot.setSearchSurface(cloud);
-    shot.compute(*out.descriptors);
-    times.descriptors += elapsed_ms(t);
-
-    t = Clock::now();
-    pcl::BOARDLocalReferenceFrameEstimation<PclPoint, PclNormal, PclFrame> board;
-    board.setFindHoles(true);
-    board.setRadiusSearch(params.lrf_radius);
-    board.setInputCloud(out.keypoints);
-    board.setInputNormals(out.normals);
-    board.setSearchSurface(cloud);
-    board.compute(*out.frames);
-    times.lrf += elapsed_ms(t);
-    return out;
-}
-
-struct PclResult {
-    PclFeatures scene;
-    pcl::CorrespondencesPtr correspondences{new pcl::Correspondences};
-    std::vector<Eigen::Matrix4f, Eigen::aligned_allocator<Eigen::Matrix4f>> poses;
-    std::vector<pcl::Correspondences> clustered;
-    PclStageTimes times;
-};
-
-PclResult pcl_recognize(const PclFeatures& model, const pcl::PointCloud<PclPoint>::ConstPtr& scene,
-                        const PclParams& params, int threads)
-{
-    PclResult out;
-    out.scene = pcl_features(scene, params.scene_sampling, params, threads, out.times);
-
-    // The tutorial's matching: a kd-tree over the model descriptors (built here, as the tutorial
-    // does, and as ours builds its tree per call), each finite scene descriptor's nearest neighbour.
-    auto t = Clock::now();
-    pcl::KdTreeFLANN<PclDescriptor> match_search;
-    match_search.setInputCloud(model.descriptors);
-    std::vector<int> index(1);
-    std::vector<float> distance(1);
-    for (std::size_t i = 0; i < out.scene.descriptors->size(); ++i) {
-        const PclDescriptor& d = (*out.scene.descriptors)[i];
-        if (!std::isfinite(d.descriptor[0])) continue;  // skipping NaNs
-        const int found = match_search.nearestKSearch(d, 1, index, distance);
-        if (found == 1 && distance[0] < params.match_threshold) {
-            out.correspondences->push_back(pcl::Correspondence(index[0], int(i), distance[0]));
-        }
-    }
-    out.times.match = elapsed_ms(t);
-
-    t = Clock::now();
-    pcl::Hough3DGrouping<PclPoint, PclPoint, PclFrame, PclFrame> clusterer;
-    clusterer.setHoughBinSize(params.hough_bin);
-    clusterer.setHoughThreshold(params.hough_threshold);
-    clusterer.setUseInterpolation(true);
-    clusterer.setUseDistanceWeight(false);
-    clusterer.setInputCloud(model.keypoints);
-    clusterer.setInputRf(model.frames);
-    clusterer.setSceneCloud(out.scene.keypoints);
-    clusterer.setSceneRf(out.scene.frames);
-    clusterer.setModelSceneCorrespondences(out.correspondences);
-    clusterer.recognize(out.poses, out.clustered);
-    out.times.group = elapsed_ms(t);
-    return out;
-}
-
-template <class Cloud> std::size_t count_finite_descriptors(const Cloud& descriptors)
-{
-    return std::size_t(std::count_if(descriptors.begin(), descriptors.end(),
-                                     [](const PclDescriptor& d) { return std::isfinite(d.descriptor[0]); }));
-}
-
-std::size_t count_finite_frames(const pcl::PointCloud<PclFrame>& frames)
-{
-    return std::size_t(std::count_if(frames.begin(), frames.end(), [](const PclFrame& f) {
-        return std::isfinite(f.x_axis[0]) && std::isfinite(f.y_axis[0]) && std::isfinite(f.z_axis[0]);
-    }));
-}
+using bench::count_finite_descriptors;
+using bench::count_finite_frames;
+using bench::PclFeatures;
+using bench::PclParams;
+using bench::PclPoint;
+using bench::PclStageTimes;
+using bench::pcl_features;
+using bench::pcl_recognize;
+using bench::PclResult;
 
 // ---------------------------------------------------------------------------------------------
 // Inputs, loaded once.
