@@ -49,7 +49,7 @@ void check_keys(const json& object, const std::string& prefix, std::initializer_
 GroundTruthInstance read_instance(const json& instance, const std::string& where)
 {
     if (!instance.is_object()) throw Error(where, "must be an object");
-    check_keys(instance, where + ".", {"transform", "object", "visible_points", "symmetry"});
+    check_keys(instance, where + ".", {"transform", "object", "visible_points", "visible_fraction", "symmetry"});
 
     GroundTruthInstance out;
     const auto transform = instance.find("transform");
@@ -78,6 +78,11 @@ GroundTruthInstance read_instance(const json& instance, const std::string& where
                            visible->get<std::uint64_t>() <= std::uint64_t(std::numeric_limits<long>::max());
         if (!count) throw Error(where + ".visible_points", "must be a non-negative integer");
         out.visible_points = visible->get<long>();
+    }
+    if (const auto fraction = instance.find("visible_fraction"); fraction != instance.end()) {
+        if (!fraction->is_number() || !(fraction->get<double>() >= 0.0 && fraction->get<double>() <= 1.0))
+            throw Error(where + ".visible_fraction", "must be a number in 0..1");
+        out.visible_fraction = fraction->get<float>();
     }
     if (const auto symmetry = instance.find("symmetry"); symmetry != instance.end()) {
         const std::string key = where + ".symmetry";

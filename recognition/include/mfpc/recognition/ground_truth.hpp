@@ -11,7 +11,8 @@ namespace mfpc {
 // Ground truth of a scene (the shared *.gt.json format):
 //   {"model": "<file>", "instances": [{"transform": [16 numbers, row-major 4x4]}, ...]}
 // Each transform maps model coordinates into scene coordinates. Instances may carry an "object"
-// name and a "visible_points" count (written by the synthetic scanner); both are optional.
+// name, a "visible_points" count and a "visible_fraction" in 0..1 (written by the synthetic scanner);
+// all optional.
 //
 // An instance may also carry the object's rotational symmetry, "symmetry": {"axis": [x, y, z],
 // "order": N}: turning the model by 360/N degrees about `axis` (in model coordinates, through the
@@ -21,6 +22,9 @@ struct GroundTruthInstance {
     Pose transform = Pose::Identity();
     std::string object;
     long visible_points = -1;  // -1 when not given
+    // Share of the object's surface the sensor would see from this camera with nothing in the way
+    // and no image border that it does see (occlusion and the border's cut); -1 when not given.
+    float visible_fraction = -1.0f;
     Eigen::Vector3f symmetry_axis = Eigen::Vector3f::UnitZ();
     int symmetry_order = 1;    // 1: no symmetry; 0: continuous
 
