@@ -12,6 +12,8 @@
 #include "mfpc/index/neighbor_grid.hpp"
 #include "mfpc/kernels/normals.hpp"
 #include "mfpc/kernels/shot.hpp"
+#include "mfpc/kernels/uniform_sampling.hpp"
+#include "mfpc/kernels/voxel_grid.hpp"
 
 namespace mfpc {
 namespace {
@@ -178,6 +180,23 @@ Features describe_keypoints(std::span<const Point> surface, std::span<const std:
                             FeatureTimings* timings, std::span<const Point> orientation, std::size_t support_budget)
 {
     return describe(surface, keypoints, normal_source, params, timings, orientation, support_budget);
+}
+
+Features describe_at_resolution(std::span<const Point> cloud, const FeatureParams& params, FeatureTimings* timings,
+                                std::span<const Point> orientation)
+{
+    if (!(params.resolution > 0.0f)) throw Error("describe_at_resolution", "the resolution must be positive");
+    if (!orientation.empty() && orientation.size() != cloud.size())
+        throw Error("describe_at_resolution", "the orientation normals must be one per cloud point");
+    const auto start = std::chrono::steady_clock::now();
+    const VoxelGrid grid = voxel_grid(cloud, params.resolution);
+    std::vector<Point> voxel_orientation;
+    for (const std::uint32_t i : orientation.empty() ? std::span<const std::uint32_t>() : std::span(grid.first))
+        voxel_orientation.push_back(orientation[i]);
+    const NeighborGrid neighbours(grid.centroids, 2.0f * params.resolution);
+    const std::vector<std::uint32_t> keypoints = uniform_sampling(grid.centroids, params.keypoint_radius);
+    if (timings) timings->normals_ms += elapsed_ms(start);
+    return describe_keypoints(grid.centroids, keypoints, neighbours, params, timings, voxel_orientation);
 }
 
 }  // namespace mfpc

@@ -118,8 +118,12 @@ Model prepare_model(const PointCloud& cloud, const FeatureParams& params, const 
     const std::span<const Point> orientation = cloud.has_normals() ? std::span<const Point>(cloud.normals)
                                                                    : std::span<const Point>();
     if (!orientation.empty()) orient_normals(model.normals, orientation);
-    const auto keypoints = uniform_sampling(model.points, params.keypoint_radius);
-    model.features = describe_keypoints(model.points, keypoints, grid, params, timings, orientation);
+    if (params.resolution > 0.0f) {
+        model.features = describe_at_resolution(model.points, params, timings, orientation);
+    } else {
+        const auto keypoints = uniform_sampling(model.points, params.keypoint_radius);
+        model.features = describe_keypoints(model.points, keypoints, grid, params, timings, orientation);
+    }
     require_model_keypoints(model.features, params, source);
     return model;
 }
@@ -158,6 +162,7 @@ void write_model_cache(const std::filesystem::path& path, const Model& model)
     Writer w;
     w.bytes().append(magic, sizeof magic);
     w.value(model_cache_version);
+    w.value(model.params.resolution);
     w.value(std::int32_t(model.params.normal_k));
     w.value(model.params.keypoint_radius);
     w.value(model.params.lrf_radius);
@@ -196,6 +201,7 @@ Model read_model_cache(const std::filesystem::path& path)
     r.value<std::array<char, sizeof magic>>();
     r.value<std::uint32_t>();
     Model model;
+    model.params.resolution = r.value<float>();
     model.params.normal_k = r.value<std::int32_t>();
     model.params.keypoint_radius = r.value<float>();
     model.params.lrf_radius = r.value<float>();
@@ -220,6 +226,8 @@ Model read_model_cache(const std::filesystem::path& path)
         throw Error(where, "corrupt model cache: non-finite descriptor values");
     const FeatureParams& p = model.params;
     const auto positive = [](float r) { return std::isfinite(r) && r > 0.0f; };
+    if (!(p.resolution >= 0.0f && p.resolution <= 0.1f))
+        throw Error(where, "corrupt model cache: invalid parameters (resolution outside 0..0.1 m)");
     if (p.normal_k < 3 || !positive(p.keypoint_radius) || !positive(p.lrf_radius) || !positive(p.shot_radius))
         throw Error(where, "corrupt model cache: invalid parameters (normal_k below 3 or a radius not positive)");
     if (model.features.size() < 3) throw Error(where, "the cached model has fewer than 3 keypoints");

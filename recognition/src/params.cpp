@@ -95,6 +95,7 @@ private:
 void read_features(const json& object, const std::string& path, const std::string& source, FeatureParams& out)
 {
     ObjectReader r(object, path, source);
+    r.number("resolution", out.resolution);
     r.integer("normal_k", out.normal_k);
     r.number("keypoint_radius", out.keypoint_radius);
     r.number("lrf_radius", out.lrf_radius);
@@ -114,7 +115,8 @@ double clean(float value)
 
 json features_json(const FeatureParams& p)
 {
-    return {{"normal_k", p.normal_k},
+    return {{"resolution", clean(p.resolution)},
+            {"normal_k", p.normal_k},
             {"keypoint_radius", clean(p.keypoint_radius)},
             {"lrf_radius", clean(p.lrf_radius)},
             {"shot_radius", clean(p.shot_radius)}};
@@ -148,6 +150,9 @@ void check_recognition_params(const RecognitionParams& p, const std::string& sou
 {
     for (const auto& [side, f] : {std::pair{"scene", &p.scene}, std::pair{"model", &p.model}}) {
         const std::string prefix = std::string(side) + ".";
+        if (!(f->resolution >= 0.0f && f->resolution <= 0.1f))
+            throw Error(source + ": " + prefix + "resolution",
+                        "must lie in [0, 0.1] metres (0: as sampled), got " + format_number(f->resolution));
         if (f->normal_k < 3 || f->normal_k > 1000)
             throw Error(source + ": " + prefix + "normal_k", "must lie in 3..1000, got " + std::to_string(f->normal_k));
         check_positive(f->keypoint_radius, source, prefix + "keypoint_radius");

@@ -42,7 +42,11 @@ RecognitionResult recognize(const Model& model, const PointCloud& scene, const R
     const PointCloud* used = foveating ? &foveated.cloud : &scene;
     std::vector<std::uint32_t> keypoints;
     FeatureTimings feature_timings;
-    const bool full_normals = params.normals_from == NormalsFrom::full || !foveating;
+    FeatureTimings resampled_timings;  // apart: the index's time goes into feature_timings meanwhile
+    // A plain scene at a working resolution is resampled and described on its own voxels (beside
+    // the whole scene's index, which verification still reads).
+    const bool resampled = !foveating && params.scene.resolution > 0.0f;
+    const bool full_normals = (params.normals_from == NormalsFrom::full || !foveating) && !resampled;
     const bool verify = params.refine.enabled || params.verify.enabled;
     // One neighbour index over the whole scene serves the normals (when taken from the full scene)
     // and verification: a sensor scene's depth image (the grid's answers, faster; it builds a grid
@@ -58,6 +62,10 @@ RecognitionResult recognize(const Model& model, const PointCloud& scene, const R
             const auto t = Clock::now();
             foveated = foveate(scene, *foveation.config, foveation.mode, foveation.single_structure);
             result.timings.foveate = elapsed_ms(t);
+        }
+        if (resampled) {
+            result.scene_features = describe_at_resolution(scene.points, params.scene, &resampled_timings);
+            return;
         }
         const auto t = Clock::now();
         keypoints = foveating ? uniform_sampling(used->points, foveated.labels, foveation.config->structures)
@@ -96,12 +104,16 @@ RecognitionResult recognize(const Model& model, const PointCloud& scene, const R
 
     auto t = Clock::now();
     std::optional<NeighborGrid> foveated_grid;
-    if (!full_normals) foveated_grid.emplace(used->points, normal_grid_cell);
+    if (!full_normals && !resampled) foveated_grid.emplace(used->points, normal_grid_cell);
     feature_timings.normals_ms += elapsed_ms(t);
-    result.scene_features =
+    if (!resampled)
+        result.scene_features =
         !full_normals ? describe_keypoints(used->points, keypoints, *foveated_grid, params.scene, &feature_timings)
         : organized   ? describe_keypoints(used->points, keypoints, *organized, params.scene, &feature_timings)
                       : describe_keypoints(used->points, keypoints, *scene_grid, params.scene, &feature_timings);
+    feature_timings.normals_ms += resampled_timings.normals_ms;
+    feature_timings.lrf_ms += resampled_timings.lrf_ms;
+    feature_timings.descriptors_ms += resampled_timings.descriptors_ms;
     result.timings.normals = feature_timings.normals_ms;
     result.timings.lrf = feature_timings.lrf_ms;
     result.timings.descriptors = feature_timings.descriptors_ms;

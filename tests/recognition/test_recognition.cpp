@@ -292,6 +292,15 @@ TEST(RecognitionParams, RejectsDuplicateKeysDeepNestingAndEndlessRansac)
     EXPECT_EQ(parse_recognition_params(R"({"ransac_iterations": 1})", "p.json").grouping.ransac_iterations, 1);
 }
 
+TEST(RecognitionParams, WorkingResolution)
+{
+    EXPECT_EQ(parse_recognition_params(R"({"scene": {"resolution": 0}})", "p.json").scene.resolution, 0.0f);
+    EXPECT_EQ(parse_recognition_params(R"({"model": {"resolution": 0.01}})", "p.json").model.resolution, 0.01f);
+    EXPECT_NE(params_error(R"({"scene": {"resolution": -0.005}})").find("p.json: scene.resolution: must lie in [0, 0.1]"),
+              std::string::npos);
+    EXPECT_NE(params_error(R"({"model": {"resolution": 2}})").find("model.resolution"), std::string::npos);
+}
+
 TEST(ModelCache, RoundTripsAndRejectsDamage)
 {
     MFPC_SHARED_FILE_OR_SKIP(path, "milk.pcd");
@@ -335,6 +344,8 @@ TEST(ModelCache, RoundTripsAndRejectsDamage)
     EXPECT_NE(forged_error([](Model& m) { m.params.shot_radius = -0.01f; }).find("corrupt model cache: invalid parameters"),
               std::string::npos);
     EXPECT_NE(forged_error([](Model& m) { m.params.normal_k = 0; }).find("corrupt model cache: invalid parameters"),
+              std::string::npos);
+    EXPECT_NE(forged_error([](Model& m) { m.params.resolution = -1.0f; }).find("corrupt model cache: invalid parameters"),
               std::string::npos);
     EXPECT_NE(forged_error([](Model& m) { m.points.clear(), m.normals.clear(); })
                   .find("corrupt model cache: no model points"),

@@ -61,4 +61,14 @@ Features describe_keypoints(std::span<const Point> surface, std::span<const std:
                             FeatureTimings* timings = nullptr, std::span<const Point> orientation = {},
                             std::size_t support_budget = default_support_budget);
 
+/// @brief Describes a cloud at the working resolution params.resolution (> 0): the cloud is
+/// resampled to one point per voxel (voxel_grid), and normals (its normal_k nearest resampled
+/// points, facing the sensor at the origin), keypoints (uniform sampling at keypoint_radius), BOARD
+/// frames and SHOT descriptors are all taken on the resampled surface. `orientation`, one normal
+/// per cloud point or empty, orients the normals as in describe_keypoints (each voxel takes its
+/// lowest-index point's). Time spent resampling counts as normals.
+/// @throws mfpc::Error when params.resolution is not positive, or as voxel_grid and describe_keypoints.
+Features describe_at_resolution(std::span<const Point> cloud, const FeatureParams& params,
+                                FeatureTimings* timings = nullptr, std::span<const Point> orientation = {});
+
 }  // namespace mfpc

@@ -48,6 +48,6 @@ Model load_model(const std::filesystem::path& path, const FeatureParams& params,
 // cache of another format version, or a truncated or corrupt one (checked by size and checksum).
 void write_model_cache(const std::filesystem::path& path, const Model& model);
 Model read_model_cache(const std::filesystem::path& path);
-inline constexpr std::uint32_t model_cache_version = 1;
+inline constexpr std::uint32_t model_cache_version = 2;  // 2: FeatureParams::resolution
 
 }  // namespace mfpc

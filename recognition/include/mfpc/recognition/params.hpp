@@ -8,6 +8,10 @@ namespace mfpc {
 
 // Per-cloud feature parameters (paper Table 3; the model and the scene each have a set).
 struct FeatureParams {
+    // The working resolution (metres): the cloud is described after resampling to one point per
+    // voxel of this edge (voxel_grid), so normals, keypoints and descriptors see the same surface
+    // whatever the sensor's pixel footprint and distance. 0: the cloud as sampled.
+    float resolution = 0.0f;
     int normal_k = 10;             // k_n: neighbours of the normal PCA
     float keypoint_radius = 0.03f;  // uniform sampling radius (plain clouds; foveated ones use r_k)
     float lrf_radius = 0.015f;     // r_l: BOARD support (the frames Hough voting uses)
@@ -84,11 +88,15 @@ struct VerifyParams {
 };
 
 struct RecognitionParams {
-    // The built-in defaults: the one set that finds both cartons of milk_pair.pcd and nothing else
-    // (README, "Recognition parameters"). Larger supports than the PCL tutorial's (0.015 / 0.02)
-    // make frames and descriptors survive the second carton's sensor noise.
-    FeatureParams scene{10, 0.03f, 0.04f, 0.04f};
-    FeatureParams model{10, 0.01f, 0.04f, 0.04f};
+    // The built-in defaults (README, "Recognition parameters", where the measurements are). Both
+    // clouds are described at one working resolution, 5 mm: coarser than a depth sensor's pixel
+    // footprint over its working range, so what is described does not depend on the sensor or the
+    // distance. Every support is then metric: normals from 30 resampled points (a disc of about
+    // 3 voxels' radius, wide enough to average the depth noise of far objects), scene keypoints 3
+    // voxels apart, model keypoints 2, frames and descriptors over 4 cm (larger than the PCL
+    // tutorial's 0.015 / 0.02, so they survive sensor noise).
+    FeatureParams scene{0.005f, 30, 0.015f, 0.04f, 0.04f};
+    FeatureParams model{0.005f, 30, 0.01f, 0.04f, 0.04f};
     NormalsFrom normals_from = NormalsFrom::full;
     MatchParams match;
     GroupingParams grouping;
