@@ -357,6 +357,7 @@ std::vector<Instance> refine_and_verify(std::vector<Instance> instances, std::sp
     // objects around it: those are refined, and beat it in the merge. The points within a
     // hypothesis are what runs in parallel.
     std::vector<std::size_t> accepted;  // instance numbers; with merging, claimed[i] is accepted[i]'s place
+    std::vector<std::size_t> accepted_inliers;  // per accepted: its model points that fit the scene
     std::vector<std::vector<Point>> claimed_points;
     std::vector<std::unique_ptr<NeighborGrid>> claimed;
     std::vector<std::uint8_t> settled;  // per claim
@@ -451,6 +452,7 @@ std::vector<Instance> refine_and_verify(std::vector<Instance> instances, std::sp
         instance.continuation = rim_settled ? float(rim.continued) / float(rim_settled) : 0.0f;
         if (rim_settled >= min_rim_evidence && instance.continuation > verify.max_continuation) continue;
         accepted.push_back(n);
+        accepted_inliers.push_back(inliers);
         if (verify.merge) {
             claimed_points.push_back(at);
             claimed.push_back(std::make_unique<NeighborGrid>(claimed_points.back(), std::max(verify.merge_distance, 1e-3f)));
@@ -461,15 +463,17 @@ std::vector<Instance> refine_and_verify(std::vector<Instance> instances, std::sp
     std::vector<std::uint8_t> keep(accepted.size(), 1);
     if (verify.enabled && verify.merge) {
         // Refined, two accepted instances may still overlap (the later started elsewhere and slid
-        // onto the earlier's object): the one explaining more of the model's facing side stays
-        // (coverage, then fitness, then the earlier). Not fitness first: where part of the object
-        // has no depth (cut by the frame, or no return), the true pose counts those points as
-        // visible and unmatched, while a pose slid off them scores a higher fitness on less.
+        // onto the earlier's object): the one that explains more of the scene stays (more model
+        // points fitting it, then coverage, then fitness, then the earlier). Not a share first:
+        // where part of the object has no depth (cut by the frame, or no return), the true pose
+        // counts those points as visible and unmatched, while a pose slid or turned off them (a
+        // carton cut in half fits upside down) scores a higher fitness and coverage on fewer points.
         std::vector<std::size_t> by_coverage(accepted.size());
         for (std::size_t i = 0; i < by_coverage.size(); ++i) by_coverage[i] = i;
         std::stable_sort(by_coverage.begin(), by_coverage.end(), [&](std::size_t a, std::size_t b) {
             const Instance& x = instances[accepted[a]];
             const Instance& y = instances[accepted[b]];
+            if (accepted_inliers[a] != accepted_inliers[b]) return accepted_inliers[a] > accepted_inliers[b];
             return x.coverage != y.coverage ? x.coverage > y.coverage : x.fitness > y.fitness;
         });
         for (std::size_t i = 0; i < by_coverage.size(); ++i)
