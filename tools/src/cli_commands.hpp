@@ -16,5 +16,7 @@ void add_render_command(CLI::App& app, const GlobalOptions& global);
 void add_synth_command(CLI::App& app, const GlobalOptions& global);
 void add_demo_command(CLI::App& app, const GlobalOptions& global);
 void add_experiment_command(CLI::App& app, const GlobalOptions& global);
+void add_evaluate_command(CLI::App& app, const GlobalOptions& global);
+void add_synth_set_command(CLI::App& app, const GlobalOptions& global);
 
 }  // namespace mfpc::cli

@@ -3,6 +3,8 @@
 #include <filesystem>
 #include <iostream>
 
+#include <unistd.h>
+
 #include <CLI/CLI.hpp>
 
 #include "mfpc/core/atomic_file.hpp"
@@ -22,6 +24,24 @@ void write_json(const GlobalOptions& global, const nlohmann::ordered_json& resul
         return;
     }
     write_file_atomically(global.json_path, [&](std::ofstream& out) { out << json_text(result); });
+}
+
+void Progress::draw(std::size_t done, std::size_t total, const std::string& what)
+{
+    const auto now = std::chrono::steady_clock::now();
+    const bool terminal = isatty(STDERR_FILENO);
+    if (!terminal && done != total && now - last_line_ < std::chrono::seconds(10)) return;
+    last_line_ = now;
+    const double seconds = std::chrono::duration<double>(now - start_).count();
+    const double rate = seconds > 0 ? double(done) / seconds : 0.0;
+    std::string timing = format_fixed(seconds, 0) + " s";
+    if (done > 0 && done < total) timing += ", " + format_fixed(double(total - done) / rate, 0) + " s left";
+    constexpr std::size_t width = 30;
+    const std::size_t filled = total > 0 ? done * width / total : width;
+    std::cerr << (terminal ? "\r[" : "[") << std::string(filled, '#') << std::string(width - filled, '.') << "] " << done
+              << "/" << total << "  " << format_fixed(rate, 2) << "/s  " << timing << "  " << what
+              << (terminal ? "    " : "\n") << std::flush;
+    if (terminal && done == total) std::cerr << '\n';
 }
 
 void warn(const std::string& message) { std::cerr << "mfpc: warning: " << message << '\n'; }

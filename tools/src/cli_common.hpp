@@ -50,6 +50,17 @@ std::pair<std::uint32_t, std::uint32_t> parse_size(const std::string& text, cons
 // A two-column table with aligned keys.
 void print_rows(const std::vector<std::pair<std::string, std::string>>& rows);
 
+// A progress bar on stderr with the rate and the time left, redrawn in place on a terminal; in a
+// log (stderr not a terminal) a plain line every 10 seconds and at the end.
+class Progress {
+public:
+    void draw(std::size_t done, std::size_t total, const std::string& what);
+
+private:
+    std::chrono::steady_clock::time_point start_ = std::chrono::steady_clock::now();
+    std::chrono::steady_clock::time_point last_line_ = start_;
+};
+
 class Stopwatch {
 public:
     double lap_ms()

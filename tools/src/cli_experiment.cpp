@@ -1,7 +1,6 @@
 #include <fcntl.h>
 #include <spawn.h>
 #include <sys/wait.h>
-#include <unistd.h>
 
 #include <cerrno>
 #include <cmath>
@@ -62,17 +61,6 @@ nlohmann::ordered_json summary_json(const Summary& s)
             {"std", number(s.standard_deviation)}, {"t", number(s.t_quantile)}, {"ci95_low", number(s.low)},
             {"ci95_high", number(s.high)}, {"median", number(s.median)},  {"min", number(s.min)},
             {"max", number(s.max)}};
-}
-
-// A text progress bar on stderr, redrawn in place on a terminal; a log gets the last line only.
-void draw_progress(int done, int total, const std::string& what)
-{
-    if (!isatty(STDERR_FILENO) && done != total) return;
-    constexpr int width = 30;
-    const int filled = total > 0 ? done * width / total : width;
-    std::cerr << "\r[" << std::string(std::size_t(filled), '#') << std::string(std::size_t(width - filled), '.') << "] "
-              << done << "/" << total << "  " << what << "    " << std::flush;
-    if (done == total) std::cerr << '\n';
 }
 
 std::string csv_row(const std::vector<std::string>& cells)
@@ -201,9 +189,10 @@ void run_experiment_command(const ExperimentOptions& options, const GlobalOption
                                    config.ground_truth.string());
 
     std::size_t current = 0;
+    Progress bar;
     const auto outcomes = run_experiment(config, model, scene, truth, [&](int done, int total) {
         current = std::size_t(done - 1) / std::size_t(config.runs);
-        if (!global.quiet) draw_progress(done, total, config.strategies[std::min(current, config.strategies.size() - 1)].name);
+        if (!global.quiet) bar.draw(std::size_t(done), std::size_t(total), config.strategies[std::min(current, config.strategies.size() - 1)].name);
     });
 
     std::vector<Summary> totals;

@@ -55,8 +55,10 @@ int main(int argc, char** argv)
     add_recognize_command(app, global);
     add_render_command(app, global);
     add_synth_command(app, global);
+    add_synth_set_command(app, global);
     add_demo_command(app, global);
     add_experiment_command(app, global);
+    add_evaluate_command(app, global);
 
     // The thread limit must be in force before any command runs, so it is set from a pre-parse
     // callback: after the options are read, before the subcommand callbacks.

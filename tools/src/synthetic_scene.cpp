@@ -331,8 +331,41 @@ FoveationConfig fovea_covering_all(const SyntheticScene& scene)
     return config;
 }
 
+ViewModelParams view_model_params(const SensorParams& sensor)
+{
+    // The views keep the scene's noise model, at VGA (they need not follow a scaling study's
+    // resolution) and the default range, which their 1 m distance lies in whatever the scene's.
+    ViewModelParams views;
+    views.sensor.noise_at_1m = sensor.noise_at_1m;
+    views.sensor.baseline = sensor.baseline;
+    views.sensor.disparity_subpixel = sensor.disparity_subpixel;
+    views.sensor.max_incidence_deg = sensor.max_incidence_deg;
+    return views;
+}
+
+std::vector<float> visible_fraction_of(const SyntheticScene& scene, const Scan& scan, const SensorParams& sensor,
+                                       std::uint32_t seed)
+{
+    SensorParams wide = sensor;
+    wide.focal_length = scan.camera.fx;
+    wide.width = sensor.width * 2;
+    wide.height = sensor.height * 2;
+    std::vector<float> fractions(scene.objects.size(), -1.0f);
+    for (std::size_t i = 0; i < scene.objects.size(); ++i) {
+        SyntheticScene alone;
+        alone.shapes = scene.shapes;
+        alone.objects = {scene.objects[i]};
+        alone.plane_half_size = Eigen::Vector2f::Zero();
+        alone.camera = scene.camera;
+        const std::size_t unhidden = scan_scene(alone, wide, seed).visible_points[0];
+        if (unhidden > 0) fractions[i] = std::min(1.0f, float(scan.visible_points[i]) / float(unhidden));
+    }
+    return fractions;
+}
+
 SyntheticDataset make_synthetic_dataset(std::vector<SceneShape> shapes, const ComposeParams& compose,
-                                        const SensorParams& sensor, float model_spacing, const FeatureParams& features)
+                                        const SensorParams& sensor, float model_spacing, const FeatureParams& features,
+                                        bool describe_model)
 {
     check_sensor(sensor);
     check_model_spacing(model_spacing);
@@ -354,15 +387,11 @@ SyntheticDataset make_synthetic_dataset(std::vector<SceneShape> shapes, const Co
         // A fixed sampling seed: a shape's model cloud is the same file in every scene.
         dataset.models.push_back(shape.mesh.empty() ? shape.discs : sample_surface(shape.mesh, model_spacing, 1));
     }
-    // The views keep the scene's noise model, at VGA (they need not follow a scaling study's
-    // resolution) and the default range, which their 1 m distance lies in whatever the scene's.
-    ViewModelParams views;
-    views.sensor.noise_at_1m = sensor.noise_at_1m;
-    views.sensor.baseline = sensor.baseline;
-    views.sensor.disparity_subpixel = sensor.disparity_subpixel;
-    views.sensor.max_incidence_deg = sensor.max_incidence_deg;
-    dataset.model = prepare_view_model(dataset.scene.shapes[0], dataset.models[0], features, views);
-    dataset.model.source = file_safe(dataset.scene.shapes[0].name) + ".pcd";
+    if (describe_model) {
+        dataset.model = prepare_view_model(dataset.scene.shapes[0], dataset.models[0], features,
+                                           view_model_params(sensor));
+        dataset.model.source = file_safe(dataset.scene.shapes[0].name) + ".pcd";
+    }
     return dataset;
 }
 
@@ -392,6 +421,7 @@ GroundTruth ground_truth_of(const SyntheticDataset& dataset)
         instance.transform = world_to_camera * object.pose;
         instance.object = dataset.scene.shapes[object.shape].name;
         instance.visible_points = long(dataset.scan.visible_points[i]);
+        if (i < dataset.visible_fraction.size()) instance.visible_fraction = dataset.visible_fraction[i];
         instance.symmetry_order = dataset.scene.shapes[object.shape].symmetry_order;
         truth.instances.push_back(instance);
     }
@@ -413,7 +443,8 @@ void write_synthetic_dataset(const std::filesystem::path& directory, const Synth
         model_files.push_back(file);
         write_cloud(directory / file, dataset.models[s]);
     }
-    write_model_cache(directory / (file_safe(scene.shapes[0].name) + ".mfpcm"), dataset.model);
+    if (dataset.model.features.size() > 0)
+        write_model_cache(directory / (file_safe(scene.shapes[0].name) + ".mfpcm"), dataset.model);
     write_cloud(directory / "scene.pcd", scan.cloud, {CloudEncoding::binary, true});
     write_png_gray16(directory / "labels.png", scan.cloud.width, scan.cloud.height, scan.labels);
 
@@ -423,6 +454,7 @@ void write_synthetic_dataset(const std::filesystem::path& directory, const Synth
         nlohmann::ordered_json instance = {{"transform", pose_json(truth.transform)},
                                            {"object", truth.object},
                                            {"visible_points", truth.visible_points}};
+        if (truth.visible_fraction >= 0) instance["visible_fraction"] = truth.visible_fraction;
         if (truth.symmetry_order != 1) instance["symmetry"] = {{"axis", {0, 0, 1}}, {"order", truth.symmetry_order}};
         truth_instances.push_back(instance);
     }

@@ -8,6 +8,7 @@
 #include "mfpc/core/foveation_config.hpp"
 #include "mfpc/recognition/ground_truth.hpp"
 #include "mfpc/recognition/model.hpp"
+#include "mfpc/tools/view_model.hpp"
 #include "mfpc/tools/virtual_scanner.hpp"
 
 namespace mfpc {
@@ -85,16 +86,31 @@ struct SyntheticDataset {
     Model model;                     // shapes[0] described from views
     std::uint32_t seed = 0;
     SensorParams sensor;
+    // Per object: the share of its surface the sensor would see with nothing in the way and no
+    // image border (visible_fraction_of); empty when not measured.
+    std::vector<float> visible_fraction;
 };
 
-// Composes, scans (seed also keys the sensor noise), samples the model clouds at model_spacing and
-// describes the object to recognise from views with `features`. Throws mfpc::Error when the
-// objects need a camera farther than the sensor's max_range.
+// Composes, scans (seed also keys the sensor noise), samples the model clouds at model_spacing and,
+// with `describe_model`, describes the object to recognise from views with `features` (a set of
+// scenes describes each shape once instead). Throws mfpc::Error when the objects need a camera
+// farther than the sensor's max_range.
 SyntheticDataset make_synthetic_dataset(std::vector<SceneShape> shapes, const ComposeParams& compose,
                                         const SensorParams& sensor, float model_spacing = 0.002f,
-                                        const FeatureParams& features = RecognitionParams{}.model);
+                                        const FeatureParams& features = RecognitionParams{}.model,
+                                        bool describe_model = true);
 
-// Writes the files above (each atomically) into `directory`, created if missing.
+// The views a dataset's model is described from: the scene sensor's noise model at VGA, 1 m away.
+ViewModelParams view_model_params(const SensorParams& sensor);
+
+// Per object of the scan: its visible points over those a scan of the object alone (no other
+// object, no table, an image twice as wide and high about the same principal point) returns, at
+// most 1: what occlusion and the image border leave of it.
+std::vector<float> visible_fraction_of(const SyntheticScene& scene, const Scan& scan, const SensorParams& sensor,
+                                       std::uint32_t seed);
+
+// Writes the files above (each atomically) into `directory`, created if missing; the model cache
+// only when the dataset's model was described.
 void write_synthetic_dataset(const std::filesystem::path& directory, const SyntheticDataset& dataset);
 
 // Creates `directory` if missing; throws mfpc::Error when it cannot be, or names a file, so a

@@ -1,0 +1,137 @@
+// A synthetic benchmark set end to end: generated, read as a manifest, evaluated with one scene
+// broken, and reported; and `mfpc evaluate` / `mfpc synth-set` as a user meets them.
+#include <fstream>
+
+#include <gtest/gtest.h>
+#include <nlohmann/json.hpp>
+
+#include "cli_runner.hpp"
+#include "mfpc/core/error.hpp"
+#include "mfpc/recognition/dataset.hpp"
+#include "mfpc/recognition/ground_truth.hpp"
+#include "mfpc/tools/synthetic_set.hpp"
+#include "test_support.hpp"
+
+namespace mfpc {
+namespace {
+
+using test::expect_one_line_error;
+using test::quoted;
+using test::run;
+using test::slurp;
+
+TEST(SyntheticSet, PresetsAreTheDocumentedSensors)
+{
+    EXPECT_EQ(sensor_preset("kinect").focal_length, 525.0f);
+    EXPECT_EQ(sensor_preset("stereo").focal_length, 960.0f);
+    EXPECT_EQ(sensor_preset("hd720").width, 1280u);
+    EXPECT_EQ(sensor_preset("hd720").height, 720u);
+    for (std::string_view name : sensor_preset_names()) EXPECT_NO_THROW(check_sensor(sensor_preset(name))) << name;
+    EXPECT_THROW(sensor_preset("lidar"), Error);
+}
+
+TEST(SyntheticSet, GeneratedEvaluatedAndReportedWithABrokenScene)
+{
+    const test::TempDir dir;
+    SyntheticSetParams params;
+    params.presets = {"kinect"};
+    params.scenes = 2;
+    params.objects = 1;
+    params.distractors = 1;
+    params.shapes = {"carton"};
+    std::size_t last = 0, total = 0;
+    write_synthetic_set(dir / "set", params, [&](std::size_t done, std::size_t all) {
+        last = done;
+        total = all;
+    });
+    EXPECT_EQ(last, total);
+    EXPECT_EQ(total, 3u);  // one model and two scenes
+
+    Dataset set = read_dataset(dir / "set" / "dataset.json");
+    ASSERT_EQ(set.scenes.size(), 2u);
+    ASSERT_EQ(set.models.size(), 1u);
+    EXPECT_EQ(set.models[0].name, "kinect_carton");
+    EXPECT_EQ(set.scenes[0].group, "kinect");
+    const GroundTruth truth = read_ground_truth(set.scenes[0].ground_truth);
+    ASSERT_EQ(truth.instances.size(), 1u);
+    EXPECT_GT(truth.instances[0].visible_fraction, 0.0f);
+    EXPECT_LE(truth.instances[0].visible_fraction, 1.0f);
+
+    // One scene whose cloud is gone, one negative (the table alone, where nothing may be found).
+    DatasetScene missing = set.scenes[0];
+    missing.name = "missing";
+    missing.cloud = dir / "nowhere.pcd";
+    missing.fovea.clear();
+    set.scenes.push_back(missing);
+
+    DatasetOptions options;
+    std::size_t reported = 0;
+    const DatasetReport report = evaluate_dataset(set, RecognitionParams{}, false, "", options,
+                                                  [&](std::size_t done, std::size_t, const std::string&) { reported = done; });
+    // Two scenes plain and foveated, the missing one plain only.
+    ASSERT_EQ(report.scenes.size(), 5u);
+    EXPECT_EQ(reported, 5u);
+    std::size_t failed = 0;
+    for (const SceneOutcome& s : report.scenes) {
+        if (s.scene == "missing") {
+            ++failed;
+            EXPECT_NE(s.error.find("nowhere.pcd"), std::string::npos) << s.error;
+            continue;
+        }
+        EXPECT_TRUE(s.error.empty()) << s.error;
+        EXPECT_EQ(s.truth.size(), 1u);
+        EXPECT_EQ(s.evaluation.instances_true + s.evaluation.instances_missed, 1u);
+        EXPECT_GT(s.scene_keypoints, 0u);
+        EXPECT_GT(s.peak_memory, 0u);
+    }
+    EXPECT_EQ(failed, 1u);
+
+    const std::vector<DatasetTally> tallies = tally(report);
+    ASSERT_FALSE(tallies.empty());
+    EXPECT_EQ(tallies[0].strategy, "plain");
+    EXPECT_EQ(tallies[0].kind, "all");
+    EXPECT_EQ(tallies[0].totals.scenes, 3u);
+    EXPECT_EQ(tallies[0].totals.failed, 1u);
+    EXPECT_EQ(tallies[0].totals.truth, 2u);
+
+    const auto json = nlohmann::json::parse(to_json(report));
+    EXPECT_EQ(json["scenes"].size(), 5u);
+    EXPECT_EQ(json["scenes"][4]["error"].get<std::string>(), report.scenes[4].error);
+    EXPECT_FALSE(json["totals"].empty());
+    const std::string csv = to_csv(report);
+    EXPECT_EQ(std::count(csv.begin(), csv.end(), '\n'), 6);  // a header and a row per run
+    // Every row has the header's columns, the failed one too.
+    std::istringstream lines(csv);
+    std::string header;
+    std::getline(lines, header);
+    for (std::string row; std::getline(lines, row);) {
+        if (row.find('"') != std::string::npos) continue;  // a quoted error may hold commas
+        EXPECT_EQ(std::count(row.begin(), row.end(), ','), std::count(header.begin(), header.end(), ',')) << row;
+    }
+    EXPECT_NE(to_table(report).find("error:"), std::string::npos);
+}
+
+TEST(CliEvaluate, BadInputIsOneLine)
+{
+    const test::TempDir dir;
+    expect_one_line_error(run("evaluate"), 2, "no dataset");
+    expect_one_line_error(run("evaluate --dataset " + quoted(dir / "missing.json")), 1, "missing manifest");
+    expect_one_line_error(run("evaluate --dataset " + quoted(dir.write("bad.json", "{\"models\": 3}"))), 1,
+                          "malformed manifest");
+    const auto manifest = dir.write("set.json", R"({"models": [{"file": "m.pcd"}], "scenes": [{"cloud": "a.pcd", "negative": true}]})");
+    expect_one_line_error(run("evaluate --runs some --dataset " + quoted(manifest)), 2, "bad --runs");
+    expect_one_line_error(run("evaluate --min-visible 2 --dataset " + quoted(manifest)), 2, "bad --min-visible");
+    // A model that cannot be read makes every scene of it a failure record: a warning, exit 0.
+    const test::Result result = run("--json " + quoted(dir / "out.json") + " evaluate --dataset " + quoted(manifest));
+    EXPECT_EQ(result.exit_code, 0) << result.err;
+    EXPECT_NE(result.err.find("m.pcd"), std::string::npos);
+    const auto json = nlohmann::json::parse(slurp(dir / "out.json"));
+    EXPECT_FALSE(json["scenes"][0]["error"].is_null());
+
+    expect_one_line_error(run("synth-set --presets lidar -o " + quoted(dir / "s")), 1, "unknown preset");
+    expect_one_line_error(run("synth-set --scenes 0 -o " + quoted(dir / "s")), 2, "no scenes");
+    expect_one_line_error(run("synth-set --shapes cup -o " + quoted(dir / "s")), 1, "unknown shape");
+}
+
+}  // namespace
+}  // namespace mfpc
