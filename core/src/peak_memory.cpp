@@ -1,5 +1,6 @@
 #include "mfpc/core/peak_memory.hpp"
 
+#include <charconv>
 #include <fstream>
 #include <string>
 
@@ -21,7 +22,14 @@ std::size_t peak_memory_bytes()
 {
     std::ifstream status("/proc/self/status");
     for (std::string line; std::getline(status, line);) {
-        if (line.rfind("VmHWM:", 0) == 0) return std::size_t(std::stoull(line.substr(6))) * 1024;  // "VmHWM:  1234 kB"
+        if (line.rfind("VmHWM:", 0) != 0) continue;
+        // "VmHWM:     1234 kB"
+        const std::size_t digits = line.find_first_of("0123456789");
+        std::size_t kilobytes = 0;
+        if (digits == std::string::npos ||
+            std::from_chars(line.data() + digits, line.data() + line.size(), kilobytes).ec != std::errc())
+            break;
+        return kilobytes * 1024;
     }
     // No /proc: getrusage's peak, which cannot be reset (kilobytes on Linux and the BSDs).
     rusage usage{};

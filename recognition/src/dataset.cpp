@@ -1,8 +1,11 @@
 #include "mfpc/recognition/dataset.hpp"
 
 #include <algorithm>
+#include <charconv>
+#include <cmath>
 #include <chrono>
 #include <cstdio>
+#include <limits>
 #include <map>
 #include <optional>
 #include <set>
@@ -33,12 +36,19 @@ double elapsed_ms(Clock::time_point since)
     return std::chrono::duration<double, std::milli>(Clock::now() - since).count();
 }
 
+// Where a key of `where` is, as the other readers name it: "set.json: models" at the root (where
+// ends in ": "), "set.json: scenes[2].cloud" below.
+std::string key_of(const std::string& where, const std::string& key)
+{
+    return where + (where.ends_with(": ") ? "" : ".") + key;
+}
+
 void check_keys(const json& object, const std::string& where, std::initializer_list<const char*> allowed)
 {
-    if (!object.is_object()) throw Error(where, "must be a JSON object");
+    if (!object.is_object()) throw Error(where.ends_with(": ") ? where.substr(0, where.size() - 2) : where, "must be a JSON object");
     for (const auto& item : object.items()) {
         if (std::none_of(allowed.begin(), allowed.end(), [&](const char* key) { return item.key() == key; }))
-            throw Error(where + "." + json_key_text(item.key()), "unknown key");
+            throw Error(key_of(where, json_key_text(item.key())), "unknown key");
     }
 }
 
@@ -46,10 +56,10 @@ std::string text_of(const json& object, const char* key, const std::string& wher
 {
     const auto it = object.find(key);
     if (it == object.end()) {
-        if (required) throw Error(where + "." + key, "missing");
+        if (required) throw Error(key_of(where, key), "missing");
         return {};
     }
-    if (!it->is_string() || it->get<std::string>().empty()) throw Error(where + "." + key, "must be a non-empty string");
+    if (!it->is_string() || it->get<std::string>().empty()) throw Error(key_of(where, key), "must be a non-empty string");
     return it->get<std::string>();
 }
 
@@ -67,22 +77,23 @@ Dataset read_dataset(const std::filesystem::path& path, const std::filesystem::p
     const std::string text = read_text_file(path);
     check_json_text(text, file);
     const json root = json::parse(text);
-    check_keys(root, file, {"name", "data_dir", "models", "scenes"});
+    const std::string top = file + ": ";
+    check_keys(root, top, {"name", "data_dir", "models", "scenes"});
 
     Dataset dataset;
     dataset.source = path;
-    dataset.name = text_of(root, "name", file, false);
+    dataset.name = text_of(root, "name", top, false);
     if (dataset.name.empty()) dataset.name = path.stem().string();
     const std::filesystem::path manifest_dir = path.parent_path();
-    const std::string data_text = text_of(root, "data_dir", file, false);
+    const std::string data_text = text_of(root, "data_dir", top, false);
     const std::filesystem::path data = !data_dir.empty() ? data_dir : under(manifest_dir, data_text);
 
     const auto models = root.find("models");
-    if (models == root.end()) throw Error(file + ".models", "missing");
-    if (!models->is_array() || models->empty()) throw Error(file + ".models", "must be a non-empty array");
+    if (models == root.end()) throw Error(top + "models", "missing");
+    if (!models->is_array() || models->empty()) throw Error(top + "models", "must be a non-empty array");
     std::set<std::string> model_names;
     for (std::size_t i = 0; i < models->size(); ++i) {
-        const std::string where = file + ".models[" + std::to_string(i) + "]";
+        const std::string where = top + "models[" + std::to_string(i) + "]";
         check_keys((*models)[i], where, {"name", "file"});
         DatasetModel model;
         const std::string model_file = text_of((*models)[i], "file", where, true);
@@ -94,12 +105,12 @@ Dataset read_dataset(const std::filesystem::path& path, const std::filesystem::p
     }
 
     const auto scenes = root.find("scenes");
-    if (scenes == root.end()) throw Error(file + ".scenes", "missing");
-    if (!scenes->is_array() || scenes->empty()) throw Error(file + ".scenes", "must be a non-empty array");
+    if (scenes == root.end()) throw Error(top + "scenes", "missing");
+    if (!scenes->is_array() || scenes->empty()) throw Error(top + "scenes", "must be a non-empty array");
     std::set<std::string> scene_names;
     for (std::size_t i = 0; i < scenes->size(); ++i) {
         const json& entry = (*scenes)[i];
-        const std::string where = file + ".scenes[" + std::to_string(i) + "]";
+        const std::string where = top + "scenes[" + std::to_string(i) + "]";
         check_keys(entry, where, {"name", "model", "cloud", "ground_truth", "negative", "fovea", "group"});
         DatasetScene scene;
         const std::string cloud = text_of(entry, "cloud", where, true);
@@ -149,7 +160,7 @@ SceneOutcome run_scene(const DatasetScene& scene, const Model* model, const std:
     out.negative = scene.ground_truth.empty();
     try {
         if (!model) throw Error(scene.model, model_error);
-        reset_peak_memory();
+        out.peak_memory_reset = reset_peak_memory();
         GroundTruth truth;
         if (!out.negative) truth = read_ground_truth(scene.ground_truth);
         for (const GroundTruthInstance& instance : truth.instances)
@@ -183,7 +194,12 @@ void add(DatasetTotals& totals, const SceneOutcome& scene, float min_visible)
 {
     ++totals.scenes;
     if (!scene.error.empty()) {
+        // A scene that could not run found none of its objects (those known: a ground truth that
+        // could not be read leaves none to count).
         ++totals.failed;
+        totals.truth += scene.truth.size();
+        totals.instances_missed += scene.truth.size();
+        for (const TruthOutcome& t : scene.truth) totals.visible += !(t.visible_fraction >= 0 && t.visible_fraction < min_visible);
         return;
     }
     const Evaluation& e = scene.evaluation;
@@ -211,6 +227,18 @@ std::string fixed(double value, int decimals)
     std::snprintf(text, sizeof text, "%.*f", decimals, value);
     return text;
 }
+
+// A float as the double of its shortest decimal form: 0.8f is written 0.8, not 0.800000011920929.
+double shortest(float value)
+{
+    char buffer[32];
+    const auto end = std::to_chars(buffer, buffer + sizeof buffer, value).ptr;
+    double out = 0.0;
+    std::from_chars(buffer, end, out);
+    return out;
+}
+
+std::string recall_text(double recall) { return std::isnan(recall) ? "-" : fixed(recall, 3); }
 
 std::string mebibytes(std::size_t bytes) { return fixed(double(bytes) / (1024.0 * 1024.0), 0); }
 
@@ -256,7 +284,10 @@ double DatasetTotals::sensitivity() const
     return possible_correspondences == 0 ? 0.0 : sensitivity_sum / double(possible_correspondences);
 }
 
-double DatasetTotals::recall_visible() const { return visible == 0 ? 1.0 : double(visible_found) / double(visible); }
+double DatasetTotals::recall_visible() const
+{
+    return visible == 0 ? std::numeric_limits<double>::quiet_NaN() : double(visible_found) / double(visible);
+}
 
 double DatasetTotals::median_ms() const
 {
@@ -272,6 +303,9 @@ DatasetReport evaluate_dataset(const Dataset& dataset, const RecognitionParams& 
                                const DatasetProgress& progress)
 {
     check_recognition_params(params, params_source.empty() ? "params" : params_source);
+    if (!(options.min_visible_fraction >= 0.0f && options.min_visible_fraction <= 1.0f))
+        throw Error("evaluate", "the least visible fraction must lie in [0, 1], got " +
+                                    format_number(options.min_visible_fraction));
     DatasetReport report;
     report.dataset = dataset.name;
     report.params_source = params_source;
@@ -295,6 +329,7 @@ DatasetReport evaluate_dataset(const Dataset& dataset, const RecognitionParams& 
         try {
             models[name] = load_model(it->file, params.model, check_cache_params, params_source);
             outcome.keypoints = models[name]->features.size();
+            outcome.params = models[name]->params;
         } catch (const std::exception& error) {
             models[name] = std::nullopt;
             outcome.error = error.what();
@@ -332,7 +367,6 @@ std::vector<DatasetTally> tally(const DatasetReport& report)
             if (scene.strategy != strategy) continue;
             add(all.totals, scene, min_visible);
             if (!scene.group.empty()) add(groups[scene.group], scene, min_visible);
-            if (!scene.error.empty()) continue;
             // Per shape: each ground-truth instance on its own (scene-wide counts do not split by shape).
             for (const TruthOutcome& t : scene.truth) {
                 DatasetTotals& o = objects[t.object.empty() ? scene.model : t.object];
@@ -360,13 +394,14 @@ std::string to_json(const DatasetReport& report)
                           {"file", m.file},
                           {"cached", m.cached},
                           {"keypoints", m.keypoints},
+                          {"params", m.error.empty() ? ordered_json::parse(to_json(m.params)) : ordered_json(nullptr)},
                           {"ms", m.ms},
                           {"error", m.error.empty() ? ordered_json(nullptr) : ordered_json(m.error)}});
     ordered_json scenes = ordered_json::array();
     for (const SceneOutcome& s : report.scenes) {
         ordered_json truth = ordered_json::array();
         for (const TruthOutcome& t : s.truth)
-            truth.push_back({{"object", t.object}, {"visible_fraction", t.visible_fraction}, {"found", t.found}});
+            truth.push_back({{"object", t.object}, {"visible_fraction", shortest(t.visible_fraction)}, {"found", t.found}});
         const Evaluation& e = s.evaluation;
         ordered_json item = {{"scene", s.scene}, {"model", s.model},       {"strategy", s.strategy},
                              {"group", s.group}, {"negative", s.negative}, {"error", nullptr}};
@@ -396,7 +431,8 @@ std::string to_json(const DatasetReport& report)
                            {"match", s.timings.match},
                            {"group", s.timings.group},
                            {"verify", s.timings.verify}}},
-                         {"peak_memory_bytes", s.peak_memory}});
+                         {"peak_memory_bytes", s.peak_memory},
+                         {"peak_memory_reset", s.peak_memory_reset}});
         }
         scenes.push_back(item);
     }
@@ -412,11 +448,11 @@ std::string to_json(const DatasetReport& report)
         {"threads", report.threads},
         {"params_source", report.params_source},
         {"params", ordered_json::parse(to_json(report.params))},
-        {"min_visible_fraction", report.options.min_visible_fraction},
+        {"min_visible_fraction", shortest(report.options.min_visible_fraction)},
         {"tolerances",
-         {{"correspondence_m", tolerances.correspondence_tolerance},
-          {"instance_m", tolerances.instance_translation},
-          {"instance_deg", tolerances.instance_angle_deg}}},
+         {{"correspondence_m", shortest(tolerances.correspondence_tolerance)},
+          {"instance_m", shortest(tolerances.instance_translation)},
+          {"instance_deg", shortest(tolerances.instance_angle_deg)}}},
         {"models", models},
         {"scenes", scenes},
         {"totals", tallies}};
@@ -482,12 +518,13 @@ std::string to_table(const DatasetReport& report)
         const DatasetTotals& x = t.totals;
         const std::string label = t.kind == "all" ? "all" : t.kind + " " + t.key;
         if (t.kind == "object") {
-            std::snprintf(line, sizeof line, "%-6s %-22s %6s %6s %5zu %5s %6zu %7.3f\n", t.strategy.c_str(),
-                          label.c_str(), "", "", x.instances_true, "", x.instances_missed, x.recall_visible());
+            std::snprintf(line, sizeof line, "%-6s %-22s %6s %6s %5zu %5s %6zu %7s\n", t.strategy.c_str(),
+                          label.c_str(), "", "", x.instances_true, "", x.instances_missed,
+                          recall_text(x.recall_visible()).c_str());
         } else {
-            std::snprintf(line, sizeof line, "%-6s %-22s %6zu %6zu %5zu %5zu %6zu %7.3f %9.3f %9.3f %10.1f %8s\n",
+            std::snprintf(line, sizeof line, "%-6s %-22s %6zu %6zu %5zu %5zu %6zu %7s %9.3f %9.3f %10.1f %8s\n",
                           t.strategy.c_str(), label.c_str(), x.scenes, x.failed, x.instances_true, x.instances_false,
-                          x.instances_missed, x.recall_visible(), x.precision(), x.sensitivity(), x.median_ms(),
+                          x.instances_missed, recall_text(x.recall_visible()).c_str(), x.precision(), x.sensitivity(), x.median_ms(),
                           mebibytes(x.peak_memory).c_str());
         }
         out << line;

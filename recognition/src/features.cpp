@@ -183,17 +183,20 @@ Features describe_keypoints(std::span<const Point> surface, std::span<const std:
 }
 
 Features describe_at_resolution(std::span<const Point> cloud, const FeatureParams& params, FeatureTimings* timings,
-                                std::span<const Point> orientation)
+                                std::span<const Point> orientation, std::size_t* resampled_points)
 {
     if (!(params.resolution > 0.0f)) throw Error("describe_at_resolution", "the resolution must be positive");
     if (!orientation.empty() && orientation.size() != cloud.size())
         throw Error("describe_at_resolution", "the orientation normals must be one per cloud point");
     const auto start = std::chrono::steady_clock::now();
     const VoxelGrid grid = voxel_grid(cloud, params.resolution);
+    if (resampled_points) *resampled_points = grid.centroids.size();
     std::vector<Point> voxel_orientation;
     for (const std::uint32_t i : orientation.empty() ? std::span<const std::uint32_t>() : std::span(grid.first))
         voxel_orientation.push_back(orientation[i]);
-    const NeighborGrid neighbours(grid.centroids, 2.0f * params.resolution);
+    // Cells of 3 voxels: the 30 nearest of a resampled surface lie within about 1.5 cm, so the
+    // k-nearest search mostly reads one ring of cells (2 voxels gave 20% more normals time).
+    const NeighborGrid neighbours(grid.centroids, 3.0f * params.resolution);
     const std::vector<std::uint32_t> keypoints = uniform_sampling(grid.centroids, params.keypoint_radius);
     if (timings) timings->normals_ms += elapsed_ms(start);
     return describe_keypoints(grid.centroids, keypoints, neighbours, params, timings, voxel_orientation);

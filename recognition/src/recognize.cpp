@@ -43,6 +43,7 @@ RecognitionResult recognize(const Model& model, const PointCloud& scene, const R
     std::vector<std::uint32_t> keypoints;
     FeatureTimings feature_timings;
     FeatureTimings resampled_timings;  // apart: the index's time goes into feature_timings meanwhile
+    std::size_t resampled_points = 0;
     // A plain scene at a working resolution is resampled and described on its own voxels (beside
     // the whole scene's index, which verification still reads).
     const bool resampled = !foveating && params.scene.resolution > 0.0f;
@@ -64,7 +65,8 @@ RecognitionResult recognize(const Model& model, const PointCloud& scene, const R
             result.timings.foveate = elapsed_ms(t);
         }
         if (resampled) {
-            result.scene_features = describe_at_resolution(scene.points, params.scene, &resampled_timings);
+            result.scene_features =
+                describe_at_resolution(scene.points, params.scene, &resampled_timings, {}, &resampled_points);
             return;
         }
         const auto t = Clock::now();
@@ -98,7 +100,7 @@ RecognitionResult recognize(const Model& model, const PointCloud& scene, const R
     tbb::parallel_invoke(keeping_error(foveate_and_sample, sample_error), keeping_error(index_scene, index_error));
     if (sample_error) std::rethrow_exception(sample_error);
     if (index_error) std::rethrow_exception(index_error);
-    result.counts.scene_points_used = used->size();
+    result.counts.scene_points_used = resampled ? resampled_points : used->size();
     result.counts.scene_points_foveated = foveating ? foveated.points_before_downsampling : scene.size();
     result.counts.redundant_points = foveated.redundant_points;
 

@@ -351,8 +351,10 @@ std::vector<Instance> refine_and_verify(std::vector<Instance> instances, std::sp
 
     // Hypotheses in the order given (grouping's: most votes first), each against those accepted
     // before it. One that starts on the place of a settled instance (one that explains nearly all
-    // of what the sensor could see of it) is that object again, and would lose the merge to it: it
-    // is dropped before its ICP (in clutter, most Hough maxima beside a true one are such). Only
+    // of what the sensor could see of it) is taken for that object again and dropped before its
+    // ICP (in clutter, most Hough maxima beside a true one are such). That trusts the order: the
+    // merge below prefers the instance with more fitting points, and a later hypothesis dropped
+    // here never gets to show it has more. Only
     // settled instances drop others, so that a poor fit with many votes cannot hide the true
     // objects around it: those are refined, and beat it in the merge. The points within a
     // hypothesis are what runs in parallel.
@@ -468,18 +470,18 @@ std::vector<Instance> refine_and_verify(std::vector<Instance> instances, std::sp
         // where part of the object has no depth (cut by the frame, or no return), the true pose
         // counts those points as visible and unmatched, while a pose slid or turned off them (a
         // carton cut in half fits upside down) scores a higher fitness and coverage on fewer points.
-        std::vector<std::size_t> by_coverage(accepted.size());
-        for (std::size_t i = 0; i < by_coverage.size(); ++i) by_coverage[i] = i;
-        std::stable_sort(by_coverage.begin(), by_coverage.end(), [&](std::size_t a, std::size_t b) {
+        std::vector<std::size_t> by_strength(accepted.size());
+        for (std::size_t i = 0; i < by_strength.size(); ++i) by_strength[i] = i;
+        std::stable_sort(by_strength.begin(), by_strength.end(), [&](std::size_t a, std::size_t b) {
             const Instance& x = instances[accepted[a]];
             const Instance& y = instances[accepted[b]];
             if (accepted_inliers[a] != accepted_inliers[b]) return accepted_inliers[a] > accepted_inliers[b];
             return x.coverage != y.coverage ? x.coverage > y.coverage : x.fitness > y.fitness;
         });
-        for (std::size_t i = 0; i < by_coverage.size(); ++i)
-            for (std::size_t j = 0; j < i && keep[by_coverage[i]]; ++j)
-                if (keep[by_coverage[j]] && overlaps(claimed_points[by_coverage[i]], *claimed[by_coverage[j]], verify))
-                    keep[by_coverage[i]] = 0;
+        for (std::size_t i = 0; i < by_strength.size(); ++i)
+            for (std::size_t j = 0; j < i && keep[by_strength[i]]; ++j)
+                if (keep[by_strength[j]] && overlaps(claimed_points[by_strength[i]], *claimed[by_strength[j]], verify))
+                    keep[by_strength[i]] = 0;
     }
     std::vector<Instance> verified;
     for (std::size_t i = 0; i < accepted.size(); ++i)

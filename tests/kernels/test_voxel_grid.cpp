@@ -95,6 +95,7 @@ TEST(VoxelGrid, WideCloudsAndBadInput)
     EXPECT_THROW(voxel_grid(wide, 0.0f), Error);
     EXPECT_THROW(voxel_grid(wide, std::nanf("")), Error);
     EXPECT_THROW(voxel_grid(std::vector<Point>{Point(1e30f, 0, 0)}, 0.005f), Error);
+    EXPECT_THROW(voxel_grid(std::vector<Point>{Point(0, std::nanf(""), 0)}, 0.005f), Error);
 }
 
 }  // namespace

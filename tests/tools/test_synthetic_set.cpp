@@ -57,7 +57,7 @@ TEST(SyntheticSet, GeneratedEvaluatedAndReportedWithABrokenScene)
     EXPECT_GT(truth.instances[0].visible_fraction, 0.0f);
     EXPECT_LE(truth.instances[0].visible_fraction, 1.0f);
 
-    // One scene whose cloud is gone, one negative (the table alone, where nothing may be found).
+    // One scene whose cloud is gone: a record, and its instance counts as missed.
     DatasetScene missing = set.scenes[0];
     missing.name = "missing";
     missing.cloud = dir / "nowhere.pcd";
@@ -92,7 +92,8 @@ TEST(SyntheticSet, GeneratedEvaluatedAndReportedWithABrokenScene)
     EXPECT_EQ(tallies[0].kind, "all");
     EXPECT_EQ(tallies[0].totals.scenes, 3u);
     EXPECT_EQ(tallies[0].totals.failed, 1u);
-    EXPECT_EQ(tallies[0].totals.truth, 2u);
+    EXPECT_EQ(tallies[0].totals.truth, 3u);
+    EXPECT_GE(tallies[0].totals.instances_missed, 1u);
 
     const auto json = nlohmann::json::parse(to_json(report));
     EXPECT_EQ(json["scenes"].size(), 5u);

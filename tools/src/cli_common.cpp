@@ -2,6 +2,7 @@
 
 #include <filesystem>
 #include <iostream>
+#include <sstream>
 
 #include <unistd.h>
 
@@ -28,6 +29,7 @@ void write_json(const GlobalOptions& global, const nlohmann::ordered_json& resul
 
 void Progress::draw(std::size_t done, std::size_t total, const std::string& what)
 {
+    done = std::min(done, total);
     const auto now = std::chrono::steady_clock::now();
     const bool terminal = isatty(STDERR_FILENO);
     if (!terminal && done != total && now - last_line_ < std::chrono::seconds(10)) return;
@@ -42,6 +44,15 @@ void Progress::draw(std::size_t done, std::size_t total, const std::string& what
               << "/" << total << "  " << format_fixed(rate, 2) << "/s  " << timing << "  " << what
               << (terminal ? "    " : "\n") << std::flush;
     if (terminal && done == total) std::cerr << '\n';
+}
+
+std::vector<std::string> split_list(const std::string& text)
+{
+    std::vector<std::string> items;
+    std::stringstream stream(text);
+    for (std::string item; std::getline(stream, item, ',');)
+        if (!item.empty()) items.push_back(item);
+    return items;
 }
 
 void warn(const std::string& message) { std::cerr << "mfpc: warning: " << message << '\n'; }

@@ -47,6 +47,9 @@ std::string format_fixed(double value, int decimals);
 std::pair<std::uint32_t, std::uint32_t> parse_size(const std::string& text, const std::string& option,
                                                    std::uint32_t max_side = 16384);
 
+// "a,b,,c" -> {"a", "b", "c"}: a comma-separated option's items, empty ones dropped.
+std::vector<std::string> split_list(const std::string& text);
+
 // A two-column table with aligned keys.
 void print_rows(const std::vector<std::pair<std::string, std::string>>& rows);
 

@@ -1,6 +1,5 @@
 #include <filesystem>
 #include <iostream>
-#include <sstream>
 #include <string>
 
 #include "cli_commands.hpp"
@@ -31,15 +30,6 @@ Eigen::Vector3f parse_axis(const std::string& text)
     if (axis == "y") return Eigen::Vector3f(0, sign, 0);
     if (axis == "z") return Eigen::Vector3f(0, 0, sign);
     throw CLI::ValidationError("--up", "'" + text + "' is not one of x, -x, y, -y, z, -z");
-}
-
-std::vector<std::string> split_list(const std::string& text)
-{
-    std::vector<std::string> items;
-    std::stringstream stream(text);
-    for (std::string item; std::getline(stream, item, ',');)
-        if (!item.empty()) items.push_back(item);
-    return items;
 }
 
 void run_synth(SynthOptions options, const GlobalOptions& global)

@@ -1,6 +1,5 @@
 #include <iostream>
 #include <memory>
-#include <sstream>
 #include <string>
 
 #include "cli_commands.hpp"
@@ -17,21 +16,12 @@ struct SynthSetOptions {
     std::string output;
 };
 
-std::vector<std::string> comma_list(const std::string& text)
-{
-    std::vector<std::string> items;
-    std::stringstream stream(text);
-    for (std::string item; std::getline(stream, item, ',');)
-        if (!item.empty()) items.push_back(item);
-    return items;
-}
-
 void run_synth_set(SynthSetOptions options, const GlobalOptions& global)
 {
-    options.set.presets = comma_list(options.presets);
+    options.set.presets = split_list(options.presets);
     if (options.set.presets.empty()) throw CLI::ValidationError("--presets", "names no preset");
     for (const std::string& preset : options.set.presets) sensor_preset(preset);  // an unknown one fails before any work
-    options.set.shapes = comma_list(options.shapes);
+    options.set.shapes = split_list(options.shapes);
     if (!options.params.empty()) options.set.features = read_recognition_params(options.params).model;
     if (!(options.set.camera_distance_min > 0 && options.set.camera_distance_min <= options.set.camera_distance_max))
         throw CLI::ValidationError("--distance-min", "must be positive and at most --distance-max");

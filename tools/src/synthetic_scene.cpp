@@ -358,7 +358,8 @@ std::vector<float> visible_fraction_of(const SyntheticScene& scene, const Scan& 
         alone.plane_half_size = Eigen::Vector2f::Zero();
         alone.camera = scene.camera;
         const std::size_t unhidden = scan_scene(alone, wide, seed).visible_points[0];
-        if (unhidden > 0) fractions[i] = std::min(1.0f, float(scan.visible_points[i]) / float(unhidden));
+        // Nothing of it would be seen even alone (beyond the range, edge on): none of it is visible.
+        fractions[i] = unhidden > 0 ? std::min(1.0f, float(scan.visible_points[i]) / float(unhidden)) : 0.0f;
     }
     return fractions;
 }

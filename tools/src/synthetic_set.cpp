@@ -1,7 +1,9 @@
 #include "mfpc/tools/synthetic_set.hpp"
 
 #include <array>
+#include <cstdio>
 #include <fstream>
+#include <set>
 
 #include <nlohmann/json.hpp>
 
@@ -61,6 +63,10 @@ void write_synthetic_set(const std::filesystem::path& directory, const Synthetic
         for (std::string_view name : builtin_object_names()) shapes.emplace_back(name);
     for (const std::string& shape : shapes)
         if (!is_builtin_object(shape)) throw Error("synthetic set", "'" + shape + "' is not a built-in object");
+    if (std::set<std::string>(shapes.begin(), shapes.end()).size() != shapes.size())
+        throw Error("synthetic set", "a shape is named twice");
+    if (std::set<std::string>(params.presets.begin(), params.presets.end()).size() != params.presets.size())
+        throw Error("synthetic set", "a preset is named twice");
     std::vector<SensorParams> sensors;
     for (const std::string& preset : params.presets) sensors.push_back(sensor_preset(preset));
     check_model_spacing(params.model_spacing);

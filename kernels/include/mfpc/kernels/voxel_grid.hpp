@@ -22,8 +22,8 @@ struct VoxelGrid {
 /// What a sensor's sampling leaves in a cloud (points per area growing with 1/z² and with the
 /// focal length, terraces of quantized depth) is gone at a resolution coarser than the sensor's
 /// pixel footprint: the result has one point per voxel of surface, whatever the sensor or distance.
-/// @throws mfpc::Error for a voxel that is not positive and finite, or a point more than 2^30
-/// voxels from the origin.
+/// @throws mfpc::Error for a voxel that is not positive and finite, a point that is not finite,
+/// or a point more than 2^30 voxels from the origin.
 VoxelGrid voxel_grid(std::span<const Point> points, float voxel);
 
 }  // namespace mfpc

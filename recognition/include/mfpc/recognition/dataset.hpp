@@ -81,6 +81,7 @@ struct SceneOutcome {
     double scene_ms = 0;  ///< the scene pipeline (RecognitionTimings::total), reading aside
     RecognitionTimings timings;
     std::size_t peak_memory = 0;  ///< bytes: the process's peak while the scene was read and recognised
+    bool peak_memory_reset = false;  ///< false: the system could not reset the mark; the peak is the process's so far
 };
 
 /// @brief A model as the set's run prepared it.
@@ -90,10 +91,13 @@ struct ModelOutcome {
     bool cached = false;
     std::size_t keypoints = 0;
     double ms = 0;      ///< reading and describing (or reading the cache), apart from the scenes
+    FeatureParams params;  ///< what the model was described with (a cache's own, when not checked)
     std::string error;  ///< why it could not be loaded; its scenes then carry the same error
 };
 
-/// @brief Sums over scene outcomes (a strategy's, or a group's within it).
+/// @brief Sums over scene outcomes (a strategy's, or a group's within it). A failed scene's ground
+/// truth counts as missed. Correspondence precision pools every scene, negatives too (each
+/// correspondence there is wrong); the "fovea" totals cover only the scenes that have a fovea config.
 struct DatasetTotals {
     std::size_t scenes = 0, failed = 0;
     std::size_t instances_true = 0, instances_false = 0, instances_missed = 0;
@@ -106,7 +110,7 @@ struct DatasetTotals {
     std::size_t peak_memory = 0;        ///< the largest scene's
     double precision() const;           ///< correct / all correspondences, pooled
     double sensitivity() const;         ///< pooled over the possible correspondences
-    double recall_visible() const;      ///< visible_found / visible (1 when none)
+    double recall_visible() const;      ///< visible_found / visible (NaN when none)
     double median_ms() const;
 };
 

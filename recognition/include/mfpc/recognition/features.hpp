@@ -66,9 +66,11 @@ Features describe_keypoints(std::span<const Point> surface, std::span<const std:
 /// points, facing the sensor at the origin), keypoints (uniform sampling at keypoint_radius), BOARD
 /// frames and SHOT descriptors are all taken on the resampled surface. `orientation`, one normal
 /// per cloud point or empty, orients the normals as in describe_keypoints (each voxel takes its
-/// lowest-index point's). Time spent resampling counts as normals.
+/// lowest-index point's). Time spent resampling and sampling keypoints counts as normals.
+/// `resampled_points`, when given, receives the number of voxels described.
 /// @throws mfpc::Error when params.resolution is not positive, or as voxel_grid and describe_keypoints.
 Features describe_at_resolution(std::span<const Point> cloud, const FeatureParams& params,
-                                FeatureTimings* timings = nullptr, std::span<const Point> orientation = {});
+                                FeatureTimings* timings = nullptr, std::span<const Point> orientation = {},
+                                std::size_t* resampled_points = nullptr);
 
 }  // namespace mfpc

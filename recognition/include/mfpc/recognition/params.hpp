@@ -97,7 +97,10 @@ struct RecognitionParams {
     // tutorial's 0.015 / 0.02, so they survive sensor noise).
     FeatureParams scene{0.005f, 30, 0.015f, 0.04f, 0.04f};
     FeatureParams model{0.005f, 30, 0.01f, 0.04f, 0.04f};
-    NormalsFrom normals_from = NormalsFrom::full;
+    // A foveated scene is described at its levels' densities, as a plain one at the resolution: its normals
+    // come from the foveated cloud (on the synthetic sets: 164 of 215 visible instances and 5 false,
+    // against 158 and 8 from the full scene's raw points).
+    NormalsFrom normals_from = NormalsFrom::foveated;
     MatchParams match;
     GroupingParams grouping;
     RefineParams refine;

@@ -16,7 +16,7 @@ struct RecognitionCounts {
     std::size_t scene_points = 0;       // finite scene points
     std::size_t scene_points_foveated = 0;  // kept by foveation before downsampling (= scene_points without)
     std::size_t redundant_points = 0;       // points raw mode would repeat (paper Eq. 6; 0 without foveation)
-    std::size_t scene_points_used = 0;  // after foveation (= scene_points without)
+    std::size_t scene_points_used = 0;  // described: after foveation, or the voxels at a working resolution (else = scene_points)
     std::size_t scene_keypoints = 0;    // with valid frame and descriptor
     std::size_t scene_keypoints_invalid = 0;
     std::size_t model_keypoints = 0;
