@@ -146,6 +146,24 @@ Dataset read_dataset(const std::filesystem::path& path, const std::filesystem::p
     return dataset;
 }
 
+void check_dataset_files(const Dataset& dataset)
+{
+    const std::string top = dataset.source.string() + ": ";
+    auto require = [&](const std::filesystem::path& file, const std::string& entry) {
+        std::error_code error;
+        if (!file.empty() && !std::filesystem::exists(file, error))
+            throw Error(top + entry, "no such file: " + file.string());
+    };
+    for (std::size_t i = 0; i < dataset.models.size(); ++i)
+        require(dataset.models[i].file, "models[" + std::to_string(i) + "].file");
+    for (std::size_t i = 0; i < dataset.scenes.size(); ++i) {
+        const std::string entry = "scenes[" + std::to_string(i) + "].";
+        require(dataset.scenes[i].cloud, entry + "cloud");
+        require(dataset.scenes[i].ground_truth, entry + "ground_truth");
+        require(dataset.scenes[i].fovea, entry + "fovea");
+    }
+}
+
 namespace {
 
 // One scene run one way; every failure of this scene's own inputs becomes its outcome's error.
@@ -306,6 +324,7 @@ DatasetReport evaluate_dataset(const Dataset& dataset, const RecognitionParams& 
     if (!(options.min_visible_fraction >= 0.0f && options.min_visible_fraction <= 1.0f))
         throw Error("evaluate", "the least visible fraction must lie in [0, 1], got " +
                                     format_number(options.min_visible_fraction));
+    check_dataset_files(dataset);
     DatasetReport report;
     report.dataset = dataset.name;
     report.params_source = params_source;

@@ -102,3 +102,29 @@ TEST(Dataset, TotalsPoolCorrespondencesAndTakeTheMedianTime)
 
 }  // namespace
 }  // namespace mfpc
+
+namespace mfpc {
+namespace {
+
+// The shipped set over the shared real scenes, with the built-in defaults: no false instance
+// anywhere (the two negatives included), plain and foveated, and the scenes the defaults were
+// first held to found whole. milk_near_far and milk_floor each still miss one carton (README).
+TEST(Dataset, SharedSetWithTheDefaults)
+{
+    MFPC_SHARED_FILE_OR_SKIP(office, "office1.pcd");
+    const Dataset set =
+        read_dataset(std::filesystem::path(MFPC_SOURCE_DIR) / "examples/datasets/shared.json", test::shared_data_dir());
+    const DatasetReport report = evaluate_dataset(set, RecognitionParams{}, false, "");
+    ASSERT_EQ(report.scenes.size(), 8u);  // six plain, two foveated
+    for (const SceneOutcome& s : report.scenes) {
+        ASSERT_TRUE(s.error.empty()) << s.scene << ": " << s.error;
+        EXPECT_EQ(s.evaluation.instances_false, 0u) << s.scene << " " << s.strategy;
+        if (s.scene == "milk_pair" || s.scene == "milk_cartoon_all_small_clorox") {
+            EXPECT_EQ(s.evaluation.instances_missed, 0u) << s.scene << " " << s.strategy;
+        }
+        EXPECT_LT(s.peak_memory, std::size_t(500) << 20) << s.scene;
+    }
+}
+
+}  // namespace
+}  // namespace mfpc

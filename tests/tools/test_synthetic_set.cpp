@@ -57,12 +57,20 @@ TEST(SyntheticSet, GeneratedEvaluatedAndReportedWithABrokenScene)
     EXPECT_GT(truth.instances[0].visible_fraction, 0.0f);
     EXPECT_LE(truth.instances[0].visible_fraction, 1.0f);
 
-    // One scene whose cloud is gone: a record, and its instance counts as missed.
+    // A missing file stops the run before it starts, naming the entry.
     DatasetScene missing = set.scenes[0];
     missing.name = "missing";
     missing.cloud = dir / "nowhere.pcd";
     missing.fovea.clear();
     set.scenes.push_back(missing);
+    try {
+        evaluate_dataset(set, RecognitionParams{}, false, "");
+        ADD_FAILURE() << "a missing cloud was not refused";
+    } catch (const Error& error) {
+        EXPECT_NE(std::string(error.what()).find("scenes[2].cloud: no such file"), std::string::npos) << error.what();
+    }
+    // A scene whose cloud exists but is not one: a record, and its instance counts as missed.
+    set.scenes.back().cloud = dir.write("nowhere.pcd", "# .PCD v0.7\nVERSION 0.7\n");
 
     DatasetOptions options;
     std::size_t reported = 0;
@@ -122,7 +130,10 @@ TEST(CliEvaluate, BadInputIsOneLine)
     const auto manifest = dir.write("set.json", R"({"models": [{"file": "m.pcd"}], "scenes": [{"cloud": "a.pcd", "negative": true}]})");
     expect_one_line_error(run("evaluate --runs some --dataset " + quoted(manifest)), 2, "bad --runs");
     expect_one_line_error(run("evaluate --min-visible 2 --dataset " + quoted(manifest)), 2, "bad --min-visible");
-    // A model that cannot be read makes every scene of it a failure record: a warning, exit 0.
+    expect_one_line_error(run("evaluate --dataset " + quoted(manifest)), 1, "missing model file");
+    // A model that exists but cannot be read makes every scene of it a failure record: a warning, exit 0.
+    dir.write("m.pcd", "not a cloud");
+    dir.write("a.pcd", "not a cloud either");
     const test::Result result = run("--json " + quoted(dir / "out.json") + " evaluate --dataset " + quoted(manifest));
     EXPECT_EQ(result.exit_code, 0) << result.err;
     EXPECT_NE(result.err.find("m.pcd"), std::string::npos);

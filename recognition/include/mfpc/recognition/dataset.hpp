@@ -46,6 +46,11 @@ struct Dataset {
 /// that no model has, or two models or scenes of one name.
 Dataset read_dataset(const std::filesystem::path& path, const std::filesystem::path& data_dir = {});
 
+/// @brief Checks that every file the set names exists, before a long run starts.
+/// @throws mfpc::Error naming the manifest, the entry and the path of the first missing file
+/// ("set.json: scenes[2].cloud: no such file: ...").
+void check_dataset_files(const Dataset& dataset);
+
 /// @brief What evaluate_dataset runs and how it scores.
 struct DatasetOptions {
     bool plain = true;     ///< every scene without foveation
@@ -137,8 +142,9 @@ using DatasetProgress = std::function<void(std::size_t done, std::size_t total, 
 
 /// @brief Runs every scene of the set (plain and, where it has a fovea, foveated) with `params`
 /// and scores it. Each model is loaded once (a cache made with other model parameters is an error
-/// when `check_cache_params`, as in `recognize`). A scene that fails to read or recognise, or whose
-/// model failed, is an outcome with its error and the run goes on; nothing is thrown for one scene.
+/// when `check_cache_params`, as in `recognize`). A missing file stops the run before it starts
+/// (check_dataset_files); a scene whose files exist but fail to read, that fails to recognise, or
+/// whose model failed, is an outcome with its error and the run goes on.
 DatasetReport evaluate_dataset(const Dataset& dataset, const RecognitionParams& params, bool check_cache_params,
                                const std::string& params_source, const DatasetOptions& options = {},
                                const DatasetProgress& progress = {});
