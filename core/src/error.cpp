@@ -33,4 +33,13 @@ std::string format_number(double value)
     return std::string(buffer, result.ptr);
 }
 
+double shortest_double(float value)
+{
+    char buffer[32];
+    const auto end = std::to_chars(buffer, buffer + sizeof buffer, value).ptr;
+    double out = 0.0;
+    std::from_chars(buffer, end, out);
+    return out;
+}
+
 }  // namespace mfpc

@@ -1,7 +1,6 @@
 #include "mfpc/recognition/dataset.hpp"
 
 #include <algorithm>
-#include <charconv>
 #include <cmath>
 #include <chrono>
 #include <cstdio>
@@ -246,16 +245,6 @@ std::string fixed(double value, int decimals)
     return text;
 }
 
-// A float as the double of its shortest decimal form: 0.8f is written 0.8, not 0.800000011920929.
-double shortest(float value)
-{
-    char buffer[32];
-    const auto end = std::to_chars(buffer, buffer + sizeof buffer, value).ptr;
-    double out = 0.0;
-    std::from_chars(buffer, end, out);
-    return out;
-}
-
 std::string recall_text(double recall) { return std::isnan(recall) ? "-" : fixed(recall, 3); }
 
 std::string mebibytes(std::size_t bytes) { return fixed(double(bytes) / (1024.0 * 1024.0), 0); }
@@ -420,7 +409,7 @@ std::string to_json(const DatasetReport& report)
     for (const SceneOutcome& s : report.scenes) {
         ordered_json truth = ordered_json::array();
         for (const TruthOutcome& t : s.truth)
-            truth.push_back({{"object", t.object}, {"visible_fraction", shortest(t.visible_fraction)}, {"found", t.found}});
+            truth.push_back({{"object", t.object}, {"visible_fraction", shortest_double(t.visible_fraction)}, {"found", t.found}});
         const Evaluation& e = s.evaluation;
         ordered_json item = {{"scene", s.scene}, {"model", s.model},       {"strategy", s.strategy},
                              {"group", s.group}, {"negative", s.negative}, {"error", nullptr}};
@@ -467,11 +456,11 @@ std::string to_json(const DatasetReport& report)
         {"threads", report.threads},
         {"params_source", report.params_source},
         {"params", ordered_json::parse(to_json(report.params))},
-        {"min_visible_fraction", shortest(report.options.min_visible_fraction)},
+        {"min_visible_fraction", shortest_double(report.options.min_visible_fraction)},
         {"tolerances",
-         {{"correspondence_m", shortest(tolerances.correspondence_tolerance)},
-          {"instance_m", shortest(tolerances.instance_translation)},
-          {"instance_deg", shortest(tolerances.instance_angle_deg)}}},
+         {{"correspondence_m", shortest_double(tolerances.correspondence_tolerance)},
+          {"instance_m", shortest_double(tolerances.instance_translation)},
+          {"instance_deg", shortest_double(tolerances.instance_angle_deg)}}},
         {"models", models},
         {"scenes", scenes},
         {"totals", tallies}};

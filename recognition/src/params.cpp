@@ -1,6 +1,5 @@
 #include "mfpc/recognition/params.hpp"
 
-#include <charconv>
 #include <cmath>
 #include <set>
 #include <string>
@@ -102,16 +101,7 @@ void read_features(const json& object, const std::string& path, const std::strin
     r.number("shot_radius", out.shot_radius);
 }
 
-// A float as the double of its shortest decimal form, so 0.015f is written 0.015 and not
-// 0.014999999664723873.
-double clean(float value)
-{
-    char buffer[32];
-    const auto end = std::to_chars(buffer, buffer + sizeof buffer, value).ptr;
-    double out = 0.0;
-    std::from_chars(buffer, end, out);
-    return out;
-}
+double clean(float value) { return shortest_double(value); }
 
 json features_json(const FeatureParams& p)
 {

@@ -26,4 +26,8 @@ private:
 std::string format_number(float value);
 std::string format_number(double value);
 
+// A float as the double of its shortest decimal form, for JSON output: 0.015f is written 0.015,
+// not 0.014999999664723873.
+double shortest_double(float value);
+
 }  // namespace mfpc
