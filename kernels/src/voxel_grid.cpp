@@ -21,10 +21,10 @@ VoxelGrid voxel_grid(std::span<const Point> points, float voxel)
     if (points.size() > std::numeric_limits<std::uint32_t>::max())
         throw Error("voxel_grid", "more points than 32-bit indices can number");
 
-    // Cells relative to the lowest one, 21 bits an axis, so a key is one integer to sort by; a
-    // cloud wider than 2^21 voxels on an axis is keyed by the cells' rank instead.
     for (const Point& p : points)
         if (!p.allFinite()) throw Error("voxel_grid", "a point is not finite");
+    // Cells relative to the lowest one, 21 bits an axis, so a key is one integer to sort by; a
+    // cloud wider than 2^21 voxels on an axis is keyed by the cells' rank instead.
     const double inverse = 1.0 / double(voxel);
     constexpr double limit = double(1 << 30);
     std::vector<Eigen::Vector3i> cells(points.size());

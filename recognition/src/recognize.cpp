@@ -108,11 +108,12 @@ RecognitionResult recognize(const Model& model, const PointCloud& scene, const R
     std::optional<NeighborGrid> foveated_grid;
     if (!full_normals && !resampled) foveated_grid.emplace(used->points, normal_grid_cell);
     feature_timings.normals_ms += elapsed_ms(t);
-    if (!resampled)
+    if (!resampled) {
         result.scene_features =
-        !full_normals ? describe_keypoints(used->points, keypoints, *foveated_grid, params.scene, &feature_timings)
-        : organized   ? describe_keypoints(used->points, keypoints, *organized, params.scene, &feature_timings)
-                      : describe_keypoints(used->points, keypoints, *scene_grid, params.scene, &feature_timings);
+            !full_normals ? describe_keypoints(used->points, keypoints, *foveated_grid, params.scene, &feature_timings)
+            : organized   ? describe_keypoints(used->points, keypoints, *organized, params.scene, &feature_timings)
+                          : describe_keypoints(used->points, keypoints, *scene_grid, params.scene, &feature_timings);
+    }
     feature_timings.normals_ms += resampled_timings.normals_ms;
     feature_timings.lrf_ms += resampled_timings.lrf_ms;
     feature_timings.descriptors_ms += resampled_timings.descriptors_ms;

@@ -352,6 +352,7 @@ std::vector<float> visible_fraction_of(const SyntheticScene& scene, const Scan& 
     wide.height = sensor.height * 2;
     std::vector<float> fractions(scene.objects.size(), -1.0f);
     for (std::size_t i = 0; i < scene.objects.size(); ++i) {
+        if (scene.objects[i].distractor) continue;  // only instances are scored
         SyntheticScene alone;
         alone.shapes = scene.shapes;
         alone.objects = {scene.objects[i]};
@@ -455,7 +456,7 @@ void write_synthetic_dataset(const std::filesystem::path& directory, const Synth
         nlohmann::ordered_json instance = {{"transform", pose_json(truth.transform)},
                                            {"object", truth.object},
                                            {"visible_points", truth.visible_points}};
-        if (truth.visible_fraction >= 0) instance["visible_fraction"] = truth.visible_fraction;
+        if (truth.visible_fraction >= 0) instance["visible_fraction"] = shortest_double(truth.visible_fraction);
         if (truth.symmetry_order != 1) instance["symmetry"] = {{"axis", {0, 0, 1}}, {"order", truth.symmetry_order}};
         truth_instances.push_back(instance);
     }

@@ -105,7 +105,7 @@ ViewModelParams view_model_params(const SensorParams& sensor);
 
 // Per object of the scan: its visible points over those a scan of the object alone (no other
 // object, no table, an image twice as wide and high about the same principal point) returns, at
-// most 1: what occlusion and the image border leave of it.
+// most 1: what occlusion and the image border leave of it. -1 for distractors (not measured).
 std::vector<float> visible_fraction_of(const SyntheticScene& scene, const Scan& scan, const SensorParams& sensor,
                                        std::uint32_t seed);
 
