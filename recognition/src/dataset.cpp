@@ -22,6 +22,7 @@
 #include "mfpc/recognition/ground_truth.hpp"
 #include "mfpc/recognition/model.hpp"
 #include "mfpc/recognition/recognize.hpp"
+#include "json_fields.hpp"
 
 namespace mfpc {
 namespace {
@@ -29,37 +30,12 @@ namespace {
 using nlohmann::json;
 using nlohmann::ordered_json;
 using Clock = std::chrono::steady_clock;
+using detail::check_keys;
+using detail::text_of;
 
 double elapsed_ms(Clock::time_point since)
 {
     return std::chrono::duration<double, std::milli>(Clock::now() - since).count();
-}
-
-// Where a key of `where` is, as the other readers name it: "set.json: models" at the root (where
-// ends in ": "), "set.json: scenes[2].cloud" below.
-std::string key_of(const std::string& where, const std::string& key)
-{
-    return where + (where.ends_with(": ") ? "" : ".") + key;
-}
-
-void check_keys(const json& object, const std::string& where, std::initializer_list<const char*> allowed)
-{
-    if (!object.is_object()) throw Error(where.ends_with(": ") ? where.substr(0, where.size() - 2) : where, "must be a JSON object");
-    for (const auto& item : object.items()) {
-        if (std::none_of(allowed.begin(), allowed.end(), [&](const char* key) { return item.key() == key; }))
-            throw Error(key_of(where, json_key_text(item.key())), "unknown key");
-    }
-}
-
-std::string text_of(const json& object, const char* key, const std::string& where, bool required)
-{
-    const auto it = object.find(key);
-    if (it == object.end()) {
-        if (required) throw Error(key_of(where, key), "missing");
-        return {};
-    }
-    if (!it->is_string() || it->get<std::string>().empty()) throw Error(key_of(where, key), "must be a non-empty string");
-    return it->get<std::string>();
 }
 
 std::filesystem::path under(const std::filesystem::path& directory, const std::string& file)
@@ -92,14 +68,14 @@ Dataset read_dataset(const std::filesystem::path& path, const std::filesystem::p
     if (!models->is_array() || models->empty()) throw Error(top + "models", "must be a non-empty array");
     std::set<std::string> model_names;
     for (std::size_t i = 0; i < models->size(); ++i) {
-        const std::string where = top + "models[" + std::to_string(i) + "]";
-        check_keys((*models)[i], where, {"name", "file"});
+        const std::string where = top + "models[" + std::to_string(i) + "].";
+        check_keys((*models)[i], where.substr(0, where.size() - 1), {"name", "file"});
         DatasetModel model;
         const std::string model_file = text_of((*models)[i], "file", where, true);
         model.file = under(data, model_file);
         model.name = text_of((*models)[i], "name", where, false);
         if (model.name.empty()) model.name = std::filesystem::path(model_file).stem().string();
-        if (!model_names.insert(model.name).second) throw Error(where + ".name", "'" + model.name + "' names two models");
+        if (!model_names.insert(model.name).second) throw Error(where + "name", "'" + model.name + "' names two models");
         dataset.models.push_back(model);
     }
 
@@ -109,33 +85,35 @@ Dataset read_dataset(const std::filesystem::path& path, const std::filesystem::p
     std::set<std::string> scene_names;
     for (std::size_t i = 0; i < scenes->size(); ++i) {
         const json& entry = (*scenes)[i];
-        const std::string where = top + "scenes[" + std::to_string(i) + "]";
-        check_keys(entry, where, {"name", "model", "cloud", "ground_truth", "negative", "fovea", "group"});
+        const std::string where = top + "scenes[" + std::to_string(i) + "].";
+        check_keys(entry, where.substr(0, where.size() - 1),
+                   {"name", "model", "cloud", "ground_truth", "negative", "fovea", "group"});
         DatasetScene scene;
         const std::string cloud = text_of(entry, "cloud", where, true);
         scene.cloud = under(data, cloud);
         scene.name = text_of(entry, "name", where, false);
         if (scene.name.empty()) scene.name = std::filesystem::path(cloud).stem().string();
-        if (!scene_names.insert(scene.name).second) throw Error(where + ".name", "'" + scene.name + "' names two scenes");
+        if (!scene_names.insert(scene.name).second) throw Error(where + "name", "'" + scene.name + "' names two scenes");
         scene.model = text_of(entry, "model", where, false);
         if (scene.model.empty()) {
             if (dataset.models.size() != 1)
-                throw Error(where + ".model", "missing: the set has " + std::to_string(dataset.models.size()) + " models");
+                throw Error(where + "model", "missing: the set has " + std::to_string(dataset.models.size()) + " models");
             scene.model = dataset.models[0].name;
         } else if (!model_names.count(scene.model)) {
-            throw Error(where + ".model", "'" + scene.model + "' is not the name of a model of the set");
+            throw Error(where + "model", "'" + scene.model + "' is not the name of a model of the set");
         }
         const std::string truth = text_of(entry, "ground_truth", where, false);
         bool negative = false;
         if (const auto it = entry.find("negative"); it != entry.end()) {
-            if (!it->is_boolean()) throw Error(where + ".negative", "must be true or false");
+            if (!it->is_boolean()) throw Error(where + "negative", "must be true or false");
             negative = it->get<bool>();
         }
         // Said both ways or neither: a positive scene that lost its ground truth must not pass as
         // a negative one.
         if (negative == !truth.empty())
-            throw Error(where, truth.empty() ? "needs \"ground_truth\", or \"negative\": true for a scene with no object"
-                                             : "has a ground truth and \"negative\": true");
+            throw Error(where.substr(0, where.size() - 1),
+                        truth.empty() ? "needs \"ground_truth\", or \"negative\": true for a scene with no object"
+                                      : "has a ground truth and \"negative\": true");
         if (!truth.empty()) scene.ground_truth = under(data, truth);
         const std::string fovea = text_of(entry, "fovea", where, false);
         if (!fovea.empty()) scene.fovea = under(manifest_dir, fovea);
@@ -207,6 +185,12 @@ SceneOutcome run_scene(const DatasetScene& scene, const Model* model, const std:
     return out;
 }
 
+// Whether an instance counts for recall: seen at least min_visible, or not said.
+bool counts_as_visible(const TruthOutcome& t, float min_visible)
+{
+    return !(t.visible_fraction >= 0 && t.visible_fraction < min_visible);
+}
+
 void add(DatasetTotals& totals, const SceneOutcome& scene, float min_visible)
 {
     ++totals.scenes;
@@ -216,7 +200,7 @@ void add(DatasetTotals& totals, const SceneOutcome& scene, float min_visible)
         ++totals.failed;
         totals.truth += scene.truth.size();
         totals.instances_missed += scene.truth.size();
-        for (const TruthOutcome& t : scene.truth) totals.visible += !(t.visible_fraction >= 0 && t.visible_fraction < min_visible);
+        for (const TruthOutcome& t : scene.truth) totals.visible += counts_as_visible(t, min_visible);
         return;
     }
     const Evaluation& e = scene.evaluation;
@@ -226,7 +210,7 @@ void add(DatasetTotals& totals, const SceneOutcome& scene, float min_visible)
     if (scene.negative) totals.false_on_negatives += e.instances_false;
     totals.truth += scene.truth.size();
     for (const TruthOutcome& t : scene.truth) {
-        if (t.visible_fraction >= 0 && t.visible_fraction < min_visible) continue;
+        if (!counts_as_visible(t, min_visible)) continue;
         ++totals.visible;
         totals.visible_found += t.found;
     }
@@ -381,7 +365,7 @@ std::vector<DatasetTally> tally(const DatasetReport& report)
                 ++o.truth;
                 o.instances_true += t.found;
                 o.instances_missed += !t.found;
-                if (t.visible_fraction >= 0 && t.visible_fraction < min_visible) continue;
+                if (!counts_as_visible(t, min_visible)) continue;
                 ++o.visible;
                 o.visible_found += t.found;
             }
@@ -476,7 +460,7 @@ std::string to_csv(const DatasetReport& report)
     for (const SceneOutcome& s : report.scenes) {
         std::size_t visible = 0, visible_found = 0;
         for (const TruthOutcome& t : s.truth) {
-            if (t.visible_fraction >= 0 && t.visible_fraction < report.options.min_visible_fraction) continue;
+            if (!counts_as_visible(t, report.options.min_visible_fraction)) continue;
             ++visible;
             visible_found += t.found;
         }

@@ -9,32 +9,14 @@
 #include "mfpc/core/error.hpp"
 #include "mfpc/core/json_check.hpp"
 #include "mfpc/core/text_file.hpp"
+#include "json_fields.hpp"
 
 namespace mfpc {
 namespace {
 
 using nlohmann::json;
-
-// Every key of the experiment config and of its strategies (README, "mfpc experiment").
-void check_keys(const json& object, const std::string& where, std::initializer_list<const char*> allowed)
-{
-    if (!object.is_object()) throw Error(where, "must be a JSON object");
-    for (const auto& item : object.items()) {
-        if (std::none_of(allowed.begin(), allowed.end(), [&](const char* key) { return item.key() == key; }))
-            throw Error(where + (where.back() == ' ' ? "" : ".") + item.key(), "unknown key");
-    }
-}
-
-std::string text_of(const json& object, const char* key, const std::string& where, bool required)
-{
-    const auto it = object.find(key);
-    if (it == object.end()) {
-        if (required) throw Error(where + key, "missing");
-        return {};
-    }
-    if (!it->is_string() || it->get<std::string>().empty()) throw Error(where + key, "must be a non-empty string");
-    return it->get<std::string>();
-}
+using detail::check_keys;
+using detail::text_of;
 
 std::filesystem::path beside(const std::filesystem::path& config, const std::string& file)
 {

@@ -45,18 +45,20 @@ Model prepare_view_model(const SceneShape& shape, const PointCloud& surface, con
             scene.camera = camera_looking_at(eye, target);
             const Scan scan = scan_scene(scene, views.sensor, views.seed + view_index);
             if (scan.cloud.size() < 3) continue;
-            const auto keypoints = params.resolution > 0.0f ? std::vector<std::uint32_t>()
-                                                            : uniform_sampling(scan.cloud.points, params.keypoint_radius);
-            // The scan's neighbours in its depth image, with a fitted camera rather than the
-            // scanner's: the points sit a rounding error off their pixels, and the fit measures how
-            // far, which the image search's bounds must allow for.
-            const std::optional<Camera> fitted = fit_camera(scan.cloud);
             const auto& points = scan.cloud.points;
+            auto as_sampled = [&] {
+                const auto keypoints = uniform_sampling(points, params.keypoint_radius);
+                // The scan's neighbours in its depth image, with a fitted camera rather than the
+                // scanner's: the points sit a rounding error off their pixels, and the fit measures
+                // how far, which the image search's bounds must allow for.
+                if (const std::optional<Camera> fitted = fit_camera(scan.cloud))
+                    return describe_keypoints(points, keypoints,
+                                              OrganizedNeighbors(scan.cloud, *fitted, 3, normal_grid_cell), params,
+                                              timings);
+                return describe_keypoints(points, keypoints, NeighborGrid(points, normal_grid_cell), params, timings);
+            };
             const Features view =
-                params.resolution > 0.0f ? describe_at_resolution(points, params, timings)
-                : fitted ? describe_keypoints(points, keypoints, OrganizedNeighbors(scan.cloud, *fitted, 3, normal_grid_cell),
-                                            params, timings)
-                       : describe_keypoints(points, keypoints, NeighborGrid(points, normal_grid_cell), params, timings);
+                params.resolution > 0.0f ? describe_at_resolution(points, params, timings) : as_sampled();
 
             // Into the object's frame: keypoints by the camera pose, frame axes (rows) by its rotation.
             const Eigen::Matrix3f rotation = scene.camera.linear();
