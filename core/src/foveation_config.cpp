@@ -141,7 +141,7 @@ public:
 
         FoveationConfig config;
         if (!root.contains("levels")) fail("levels", "missing (the number of levels m)");
-        config.levels = read_levels(root["levels"], "levels");
+        const int levels = read_levels(root["levels"], "levels");
 
         if (root.contains("downsample")) {
             const json& value = root["downsample"];
@@ -158,7 +158,7 @@ public:
         }
         for (std::size_t i = 0; i < structures.size(); ++i) {
             config.structures.push_back(
-                read_structure(structures[i], "structures[" + std::to_string(i) + "]", config.levels));
+                read_structure(structures[i], "structures[" + std::to_string(i) + "]", levels));
         }
         return config;
     }
@@ -336,7 +336,7 @@ FoveationConfig read_foveation_config(const std::filesystem::path& path, FoveaPo
 std::string to_json(const FoveationConfig& config)
 {
     std::string text = "{\n";
-    text += "  \"levels\": " + std::to_string(config.levels) + ",\n";
+    text += "  \"levels\": " + std::to_string(config.levels()) + ",\n";
     text += "  \"downsample\": \"" + std::string(to_string(config.downsample)) + "\",\n";
     text += "  \"structures\": [";
     for (std::size_t i = 0; i < config.structures.size(); ++i) {
@@ -348,9 +348,9 @@ std::string to_json(const FoveationConfig& config)
                 json(structure.name).dump(-1, ' ', false, json::error_handler_t::replace);
             text += "      \"name\": " + name + ",\n";
         }
-        // A structure whose m differs from the config's is written as it is, so that reading the
-        // text back reports the mismatch instead of hiding it.
-        if (structure.levels != config.levels) {
+        // A structure whose m differs from the first one's is written as it is, so that reading
+        // the text back reports the mismatch instead of hiding it.
+        if (structure.levels != config.levels()) {
             text += "      \"levels\": " + std::to_string(structure.levels) + ",\n";
         }
         text += "      \"outer_min\": " + json_vector(structure.outer_min) + ",\n";

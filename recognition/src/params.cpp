@@ -171,8 +171,16 @@ void check_recognition_params(const RecognitionParams& p, const std::string& sou
     check_positive(p.verify.inlier_distance, source, "verify.inlier_distance");
     check_fraction(p.verify.min_inlier_fraction, source, "verify.min_inlier_fraction");
     check_fraction(p.verify.min_coverage, source, "verify.min_coverage");
+    check_fraction(p.verify.min_facing_cos, source, "verify.min_facing_cos");
+    check_fraction(p.verify.prefilter_coverage, source, "verify.prefilter_coverage");
     check_fraction(p.verify.min_thickness_ratio, source, "verify.min_thickness_ratio");
+    check_positive(p.verify.flat_side, source, "verify.flat_side");
     check_fraction(p.verify.max_continuation, source, "verify.max_continuation");
+    check_positive(p.verify.rim_distance, source, "verify.rim_distance");
+    if (p.verify.min_rim_probes < 0 || p.verify.min_rim_probes > 1000000)
+        throw Error(source + ": verify.min_rim_probes",
+                    "must lie in 0..1000000, got " + std::to_string(p.verify.min_rim_probes));
+    check_fraction(p.verify.settled_fitness, source, "verify.settled_fitness");
     check_positive(p.verify.free_space_margin, source, "verify.free_space_margin");
     check_fraction(p.verify.max_free_space_fraction, source, "verify.max_free_space_fraction");
     check_positive(p.verify.merge_distance, source, "verify.merge_distance");
@@ -223,8 +231,14 @@ RecognitionParams parse_recognition_params(std::string_view json_text, const std
             q.number("inlier_distance", p.verify.inlier_distance);
             q.number("min_inlier_fraction", p.verify.min_inlier_fraction);
             q.number("min_coverage", p.verify.min_coverage);
+            q.number("min_facing_cos", p.verify.min_facing_cos);
+            q.number("prefilter_coverage", p.verify.prefilter_coverage);
             q.number("min_thickness_ratio", p.verify.min_thickness_ratio);
+            q.number("flat_side", p.verify.flat_side);
             q.number("max_continuation", p.verify.max_continuation);
+            q.number("rim_distance", p.verify.rim_distance);
+            q.integer("min_rim_probes", p.verify.min_rim_probes);
+            q.number("settled_fitness", p.verify.settled_fitness);
             q.number("free_space_margin", p.verify.free_space_margin);
             q.number("max_free_space_fraction", p.verify.max_free_space_fraction);
             q.boolean("merge", p.verify.merge);
@@ -272,8 +286,14 @@ std::string to_json(const RecognitionParams& p)
           {"inlier_distance", clean(p.verify.inlier_distance)},
           {"min_inlier_fraction", clean(p.verify.min_inlier_fraction)},
           {"min_coverage", clean(p.verify.min_coverage)},
+          {"min_facing_cos", clean(p.verify.min_facing_cos)},
+          {"prefilter_coverage", clean(p.verify.prefilter_coverage)},
           {"min_thickness_ratio", clean(p.verify.min_thickness_ratio)},
+          {"flat_side", clean(p.verify.flat_side)},
           {"max_continuation", clean(p.verify.max_continuation)},
+          {"rim_distance", clean(p.verify.rim_distance)},
+          {"min_rim_probes", p.verify.min_rim_probes},
+          {"settled_fitness", clean(p.verify.settled_fitness)},
           {"free_space_margin", clean(p.verify.free_space_margin)},
           {"max_free_space_fraction", clean(p.verify.max_free_space_fraction)},
           {"merge", p.verify.merge},

@@ -19,30 +19,13 @@
 namespace mfpc {
 namespace {
 
-// A surface turned further than this from the ray to the sensor returns little or nothing to a
-// depth sensor (the synthetic scanner: nothing beyond 80 degrees; a Kinect fades before), so its
-// points cannot count as ones the sensor should have seen: cos 75 degrees. Where no return came
-// back, a carton with one side nearly edge on had over 40% of its facing points unmatched at its
-// true pose, and was refused for coverage. On 40 synthetic scenes, 75 and 80 degrees find the
-// same cartons; 70 finds 2 of 160 fewer with foveation.
-constexpr float grazing_cos = 0.2588f;
-
 // Whether a model point placed at p (camera frame) by `pose` turns its surface to the sensor, less
-// than 75 degrees from the ray; a point without a normal (a degenerate neighbourhood) gives no
-// evidence either way.
-bool faces_camera(const Pose& pose, const Point& p, const Point& normal)
+// than acos(min_facing_cos) from the ray; a point without a normal (a degenerate neighbourhood)
+// gives no evidence either way.
+bool faces_camera(const Pose& pose, const Point& p, const Point& normal, float min_facing_cos)
 {
-    return normal.allFinite() && (pose.linear() * normal).dot(-p) > grazing_cos * normal.norm() * p.norm();
+    return normal.allFinite() && (pose.linear() * normal).dot(-p) > min_facing_cos * normal.norm() * p.norm();
 }
-
-// Thinner than this, the side of a model turned to the sensor is flat (metres).
-constexpr float flat_side = 0.002f;
-
-// An accepted instance that explains at least this fraction of its visible points is settled: no
-// other pose of the same object would fit it much better (the shared scenes' cartons: 1.0). Poses
-// slid along a flat face still explain most of it (a box slid 12 mm along its 10 cm side: 0.96),
-// hence a bar this high.
-constexpr float settled_fitness = 0.99f;
 
 // The spread of points off their best plane: the square root of the smallest eigenvalue of their
 // covariance.
@@ -207,18 +190,15 @@ float nearest_depth_around(const SceneEvidence& scene, std::size_t pixel)
 }
 
 // Rim probes: where the model's surface would go on if the object were bigger. Each (thinned)
-// model point gets eight probes in its tangent plane, rim_distance away; a probe with a model point
-// within 0.6 rim_distance lies on the model and is dropped, so the probes left run just beyond the
-// model's edges (a curved surface strays only r^2 / 2R from its tangent plane: 3 mm on a bottle of
-// 7 cm). 1.5 cm: beyond sensor noise and the thinned model's spacing; a pose slid along a face by
-// less than rim_distance - inlier_distance is not seen by them.
-constexpr float rim_distance = 0.015f;
+// model point gets eight probes in its tangent plane, rim_distance away (VerifyParams says why
+// that far); a probe with a model point within 0.6 rim_distance lies on the model and is dropped,
+// so the probes left run just beyond the model's edges.
 struct Probe {
     Point at;              // model frame
     std::uint32_t source;  // the thinned model point it extends
 };
 std::vector<Probe> rim_probes(std::span<const Point> points, std::span<const Point> normals,
-                              std::span<const Point> model_points)
+                              std::span<const Point> model_points, float rim_distance)
 {
     std::vector<Probe> probes;
     if (points.empty()) return probes;
@@ -226,8 +206,8 @@ std::vector<Probe> rim_probes(std::span<const Point> points, std::span<const Poi
     // neighbours among them, as far as its probes reach, settle most of its probes; the rest ask
     // the whole model. One point's neighbours at a time: unthinned (model_voxel 0), a dense model
     // has thousands each.
-    constexpr float on_model = 0.6f * rim_distance;
-    constexpr float reach = rim_distance + on_model;
+    const float on_model = 0.6f * rim_distance;
+    const float reach = rim_distance + on_model;
     const NeighborGrid thinned(points, reach);
     std::optional<NeighborGrid> model;
     std::vector<std::uint32_t> neighbours;
@@ -253,10 +233,6 @@ std::vector<Probe> rim_probes(std::span<const Point> points, std::span<const Poi
     }
     return probes;
 }
-
-// Fewer rim probes than this settled either way (a bottle's only rims are its cap and base, a few
-// probes seen from most sides) is too little evidence to reject an instance on.
-constexpr std::size_t min_rim_evidence = 20;
 
 // What the scene shows at the rim probes of the fitting model points (`fitting`: per thinned
 // point, not no_match where it fits). Continued: a scene point within inlier_distance of the probe,
@@ -378,19 +354,18 @@ std::vector<Instance> refine_and_verify(std::vector<Instance> instances, std::sp
                 same = settled[c] && overlaps(scratch.placed, *claimed[c], verify);
             if (same) continue;
         }
-        // A hypothesis that explains less than three quarters of the coverage asked for, even with
-        // the looser ICP distance, will not make it: reject it before paying for ICP (most Hough
-        // maxima in clutter are such; true ones start within a centimetre).
+        // A hypothesis that explains too little of the coverage asked for, even with the looser ICP
+        // distance, will not make it: reject it before paying for ICP.
         if (verify.enabled) {
             std::size_t facing = 0;
             for (std::size_t i = 0; i < points.size(); ++i) {
-                scratch.wanted[i] = faces_camera(instance.transform, scratch.placed[i], normals[i]);
+                scratch.wanted[i] = faces_camera(instance.transform, scratch.placed[i], normals[i], verify.min_facing_cos);
                 facing += scratch.wanted[i];
             }
             nearest_scene_points(scratch.wanted, scene, std::max(refine.max_distance, verify.inlier_distance), scratch);
             const std::size_t near = std::size_t(
                 std::count_if(scratch.nearest.begin(), scratch.nearest.end(), [](std::uint32_t m) { return m != no_match; }));
-            if (float(near) < 0.75f * verify.min_coverage * float(facing) || facing == 0) continue;
+            if (float(near) < verify.prefilter_coverage * verify.min_coverage * float(facing) || facing == 0) continue;
         }
         if (refine.enabled) {
             const Fit fit = icp(instance.transform, points, scene, refine, scratch);
@@ -420,7 +395,7 @@ std::vector<Instance> refine_and_verify(std::vector<Instance> instances, std::sp
                 if (nearest_depth_around(scene, pixel) > p.z() + verify.free_space_margin) ++violations;
                 hidden = scene.depth[pixel] < p.z() - verify.free_space_margin;
             }
-            const bool faces = faces_camera(instance.transform, p, normals[i]);
+            const bool faces = faces_camera(instance.transform, p, normals[i], verify.min_facing_cos);
             if (faces) {
                 ++facing;
                 facing_spread.add(p);
@@ -437,7 +412,7 @@ std::vector<Instance> refine_and_verify(std::vector<Instance> instances, std::sp
         // A side of the model that is itself flat (a box seen face on) cannot be told from a face
         // laid on a table by its shape: the test passes it.
         const float facing_thickness = facing_spread.thickness();
-        instance.thickness_ratio = facing_thickness < flat_side ? 1.0f : inlier_spread.thickness() / facing_thickness;
+        instance.thickness_ratio = facing_thickness < verify.flat_side ? 1.0f : inlier_spread.thickness() / facing_thickness;
         instance.fitness = visible ? float(inliers) / float(visible) : 0.0f;
         instance.coverage = facing ? float(inliers) / float(facing) : 0.0f;
         instance.free_space_violation = projected ? float(violations) / float(projected) : 0.0f;
@@ -446,19 +421,19 @@ std::vector<Instance> refine_and_verify(std::vector<Instance> instances, std::sp
             instance.thickness_ratio < verify.min_thickness_ratio)
             continue;
         if (!probes) {
-            probes = rim_probes(points, normals, model_points);
+            probes = rim_probes(points, normals, model_points, verify.rim_distance);
             probe_scratch.emplace(probes->size());
         }
         const RimEvidence rim = rim_evidence(instance.transform, *probes, scratch.nearest, scene, verify, *probe_scratch);
         const std::size_t rim_settled = rim.continued + rim.free;
         instance.continuation = rim_settled ? float(rim.continued) / float(rim_settled) : 0.0f;
-        if (rim_settled >= min_rim_evidence && instance.continuation > verify.max_continuation) continue;
+        if (rim_settled >= std::size_t(verify.min_rim_probes) && instance.continuation > verify.max_continuation) continue;
         accepted.push_back(n);
         accepted_inliers.push_back(inliers);
         if (verify.merge) {
             claimed_points.push_back(at);
             claimed.push_back(std::make_unique<NeighborGrid>(claimed_points.back(), std::max(verify.merge_distance, 1e-3f)));
-            settled.push_back(instance.fitness >= settled_fitness);
+            settled.push_back(instance.fitness >= verify.settled_fitness);
             any_settled |= bool(settled.back());
         }
     }

@@ -158,7 +158,7 @@ TEST(CliRender, WritesAPngOfTheExpectedSizeWithInstancesInRed)
     EXPECT_EQ(summary["width"], 640);
     EXPECT_EQ(summary["height"], 480);
     EXPECT_EQ(summary["points"], files.scene.cloud.size());
-    EXPECT_EQ(summary["boxes"], files.scene.fovea.structures.size() * std::size_t(files.scene.fovea.levels + 1));
+    EXPECT_EQ(summary["boxes"], files.scene.fovea.structures.size() * std::size_t(files.scene.fovea.levels() + 1));
     EXPECT_EQ(summary["instances"], 1);
     EXPECT_GT(summary["overlay_points"].get<std::size_t>(), 0u);
     EXPECT_EQ(summary["view"], "camera");

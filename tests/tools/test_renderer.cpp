@@ -57,7 +57,6 @@ const Rgb white{255, 255, 255};
 FoveationConfig one_box(int levels = 1)
 {
     FoveationConfig config;
-    config.levels = levels;
     FoveatedStructure structure;
     structure.outer_min = {-0.1f, -0.1f, 1.0f};
     structure.outer_size = {0.2f, 0.2f, 0.2f};

@@ -71,7 +71,7 @@ TEST(SyntheticDataset, EachFoveaHoldsItsInstance)
     const Pose world_to_camera = data.scene.camera.inverse();
     for (std::size_t i = 0; i < data.fovea.structures.size(); ++i) {
         const Point centre = world_to_camera * data.scene.objects[i].pose * Point(0, 0, 0.1f);
-        EXPECT_EQ(data.fovea.structures[i].level_of(centre), data.fovea.levels) << "structure " << i;
+        EXPECT_EQ(data.fovea.structures[i].level_of(centre), data.fovea.levels()) << "structure " << i;
     }
 }
 

@@ -151,7 +151,7 @@ void run_foveate(const FoveateOptions& options, const GlobalOptions& global)
             {"input", input},
             {"mode", to_string(mode)},
             {"downsample", to_string(config.downsample)},
-            {"structures", std::to_string(config.structures.size()) + " (levels m = " + std::to_string(config.levels) +
+            {"structures", std::to_string(config.structures.size()) + " (levels m = " + std::to_string(config.levels()) +
                                ")"},
             {"points in", group_digits(report.points_in)},
             {"points finite", group_digits(report.points_finite)},
@@ -178,7 +178,7 @@ void run_foveate(const FoveateOptions& options, const GlobalOptions& global)
         {"mode", to_string(mode)},
         {"downsample", to_string(config.downsample)},
         {"structures", config.structures.size()},
-        {"levels", config.levels},
+        {"levels", config.levels()},
         {"points_in", report.points_in},
         {"points_finite", report.points_finite},
         {"points_before_downsampling", result.points_before_downsampling},

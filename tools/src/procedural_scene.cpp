@@ -212,7 +212,6 @@ ProceduralScene make_procedural_scene(const ProceduralSceneParams& params)
 
     // One structure per object: the outer box is the object's box (in the camera frame) grown by
     // 10 cm on every side, the fovea is the object's box itself.
-    scene.fovea.levels = params.levels;
     scene.fovea.downsample = Downsample::voxel;
     for (const Primitive& primitive : primitives) {
         const Box object_table = bounds_of(primitive);

@@ -305,12 +305,12 @@ FoveatedStructure structure_around(const Box& object, int levels, const std::str
 
 FoveationConfig fovea_per_instance(const SyntheticScene& scene)
 {
+    constexpr int levels = 3;
     FoveationConfig config;
-    config.levels = 3;
     config.downsample = Downsample::voxel;
     for (std::size_t i = 0; i < scene.objects.size(); ++i) {
         if (scene.objects[i].distractor) continue;
-        config.structures.push_back(structure_around(object_box_in_camera(scene, i), config.levels,
+        config.structures.push_back(structure_around(object_box_in_camera(scene, i), levels,
                                                      scene.shapes[scene.objects[i].shape].name + " " + std::to_string(i)));
     }
     return config;
@@ -318,8 +318,8 @@ FoveationConfig fovea_per_instance(const SyntheticScene& scene)
 
 FoveationConfig fovea_covering_all(const SyntheticScene& scene)
 {
+    constexpr int levels = 3;
     FoveationConfig config;
-    config.levels = 3;
     config.downsample = Downsample::voxel;
     Box all = bounding_box({});
     for (std::size_t i = 0; i < scene.objects.size(); ++i) {
@@ -327,7 +327,7 @@ FoveationConfig fovea_covering_all(const SyntheticScene& scene)
         const Box object = object_box_in_camera(scene, i);
         all.extend(object);
     }
-    if (all.valid()) config.structures.push_back(structure_around(all, config.levels, "all instances"));
+    if (all.valid()) config.structures.push_back(structure_around(all, levels, "all instances"));
     return config;
 }
 

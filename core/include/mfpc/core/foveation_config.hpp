@@ -27,10 +27,15 @@ enum class FoveaPolicy {
     strict,  // reject the config
 };
 
+// Structures of one multifoveated cloud. m lives in each structure (a structure's boxes need it)
+// and nowhere else; the paper's redundancy treatment (Section 4.2) compares levels across
+// structures, so the reader and the kernel require them to share it.
 struct FoveationConfig {
-    int levels = 3;  // m, shared by every structure (paper Section 4.2)
     Downsample downsample = Downsample::voxel;
     std::vector<FoveatedStructure> structures;
+
+    // m: the first structure's levels (0 without structures).
+    int levels() const { return structures.empty() ? 0 : structures.front().levels; }
 };
 
 // Parses a foveation config (JSON; keys documented in the README):
