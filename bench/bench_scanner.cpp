@@ -11,8 +11,8 @@
 #include <tbb/info.h>
 
 #include "bench_support.hpp"
-#include "mfpc/tools/synthetic_scene.hpp"
-#include "mfpc/tools/virtual_scanner.hpp"
+#include "mfpc/simulation/synthetic_scene.hpp"
+#include "mfpc/simulation/virtual_scanner.hpp"
 
 namespace {
 

@@ -14,6 +14,7 @@
 #include <tbb/global_control.h>
 
 #include "mfpc/core/cloud_io.hpp"
+#include "mfpc/core/detail/text_format.hpp"
 #include "mfpc/core/error.hpp"
 #include "mfpc/core/foveation_config.hpp"
 #include "mfpc/core/json_check.hpp"
@@ -26,6 +27,9 @@
 
 namespace mfpc {
 namespace {
+
+using detail::csv_field;
+using detail::format_fixed;
 
 using nlohmann::json;
 using nlohmann::ordered_json;
@@ -222,16 +226,9 @@ void add(DatasetTotals& totals, const SceneOutcome& scene, float min_visible)
     totals.peak_memory = std::max(totals.peak_memory, scene.peak_memory);
 }
 
-std::string fixed(double value, int decimals)
-{
-    char text[64];
-    std::snprintf(text, sizeof text, "%.*f", decimals, value);
-    return text;
-}
+std::string recall_text(double recall) { return std::isnan(recall) ? "-" : format_fixed(recall, 3); }
 
-std::string recall_text(double recall) { return std::isnan(recall) ? "-" : fixed(recall, 3); }
-
-std::string mebibytes(std::size_t bytes) { return fixed(double(bytes) / (1024.0 * 1024.0), 0); }
+std::string mebibytes(std::size_t bytes) { return format_fixed(double(bytes) / (1024.0 * 1024.0), 0); }
 
 ordered_json totals_json(const DatasetTotals& t)
 {
@@ -254,14 +251,6 @@ ordered_json totals_json(const DatasetTotals& t)
             {"peak_memory_bytes", t.peak_memory}};
 }
 
-// CSV fields are quoted when they hold a separator, a quote or a line break (an error message may).
-std::string csv_field(const std::string& text)
-{
-    if (text.find_first_of(",\"\n\r") == std::string::npos) return text;
-    std::string out = "\"";
-    for (char c : text) out += c == '"' ? std::string("\"\"") : std::string(1, c);
-    return out + "\"";
-}
 
 }  // namespace
 
@@ -448,7 +437,7 @@ std::string to_json(const DatasetReport& report)
         {"models", models},
         {"scenes", scenes},
         {"totals", tallies}};
-    return out.dump(2) + "\n";
+    return detail::json_text(out);
 }
 
 std::string to_csv(const DatasetReport& report)
@@ -474,8 +463,8 @@ std::string to_csv(const DatasetReport& report)
         out << s.instances << ',' << e.instances_true << ',' << e.instances_false << ',' << e.instances_missed << ','
             << s.truth.size() << ',' << visible << ',' << visible_found << ',' << s.scene_points << ','
             << s.scene_keypoints << ',' << s.correspondences << ',' << e.correct_correspondences << ','
-            << e.possible_correspondences << ',' << fixed(e.correspondence_precision, 4) << ','
-            << fixed(e.correspondence_sensitivity, 4) << ',' << fixed(s.read_ms, 2) << ',' << fixed(s.scene_ms, 2)
+            << e.possible_correspondences << ',' << format_fixed(e.correspondence_precision, 4) << ','
+            << format_fixed(e.correspondence_sensitivity, 4) << ',' << format_fixed(s.read_ms, 2) << ',' << format_fixed(s.scene_ms, 2)
             << ',' << s.peak_memory << '\n';
     }
     return out.str();
@@ -521,7 +510,7 @@ std::string to_table(const DatasetReport& report)
         }
         out << line;
     }
-    out << "* recall of the instances with at least " << fixed(report.options.min_visible_fraction * 100.0, 0)
+    out << "* recall of the instances with at least " << format_fixed(report.options.min_visible_fraction * 100.0, 0)
         << "% of their surface visible (all of them where the ground truth does not say)\n";
     return out.str();
 }

@@ -172,13 +172,16 @@ std::vector<StrategyOutcome> run_experiment(const ExperimentConfig& config, cons
             const int parts = strategy.serial ? int(strategy.fovea.structures.size()) : 1;
             for (int part = 0; part < parts; ++part) {
                 const SceneFoveation foveation{strategy.mode == FoveationMode::none ? nullptr : &strategy.fovea,
-                                               strategy.mode, strategy.serial ? part : strategy.structure};
+                                               strategy.mode, strategy.serial ? part : strategy.structure, run == 0};
                 RecognitionResult result = recognize(model, scene, config.params, foveation);
+                const std::vector<Point>& kept = result.foveated.cloud.points;
+                outcome.foveated.points.insert(outcome.foveated.points.end(), kept.begin(), kept.end());
                 add_counts(counts, result.counts);
                 add_timings(timings, result.timings);
                 append_result(combined, std::move(result));
             }
             outcome.timings.push_back(timings);
+            outcome.foveated.width = std::uint32_t(outcome.foveated.points.size());
             // The pipeline is deterministic: the first run's counts and scores stand for all.
             if (run == 0) {
                 outcome.counts = counts;

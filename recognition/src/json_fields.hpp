@@ -1,6 +1,7 @@
 #pragma once
 
-// Private to recognition: the key checks the experiment config and the dataset manifest share.
+// Private to recognition: the key checks the experiment config and the dataset manifest share, and
+// the one way every report of the library writes its JSON.
 // Key paths follow one convention: `where` ends in ": " at a document's root ("set.json: ") and in
 // "." below it ("set.json: scenes[2]."), so where + key names the key.
 
@@ -38,6 +39,14 @@ inline std::string text_of(const nlohmann::json& object, const char* key, const 
     }
     if (!it->is_string() || it->get<std::string>().empty()) throw Error(where + key, "must be a non-empty string");
     return it->get<std::string>();
+}
+
+// The document as indented JSON text with a final newline. Strings that are not UTF-8 (a file name
+// in another encoding, which a file system allows) get U+FFFD for their bad bytes instead of
+// failing the whole report after the work is done.
+inline std::string json_text(const nlohmann::ordered_json& document)
+{
+    return document.dump(2, ' ', false, nlohmann::ordered_json::error_handler_t::replace) + '\n';
 }
 
 }  // namespace mfpc::detail

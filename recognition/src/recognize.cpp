@@ -146,6 +146,7 @@ RecognitionResult recognize(const Model& model, const PointCloud& scene, const R
         result.timings.verify = elapsed_ms(t);
     }
     result.timings.total = elapsed_ms(start);
+    if (foveating && foveation.keep_cloud) result.foveated = std::move(foveated);
     return result;
 }
 

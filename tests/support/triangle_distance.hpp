@@ -7,7 +7,7 @@
 
 #include <Eigen/Geometry>
 
-#include "mfpc/tools/mesh.hpp"
+#include "mfpc/simulation/mesh.hpp"
 
 namespace mfpc::test {
 

@@ -13,8 +13,8 @@
 #include "cli_runner.hpp"
 #include "mfpc/core/cloud_io.hpp"
 #include "mfpc/core/foveation_config.hpp"
-#include "mfpc/tools/png_image.hpp"
-#include "mfpc/tools/procedural_scene.hpp"
+#include "mfpc/rendering/png_image.hpp"
+#include "mfpc/simulation/primitive_scene.hpp"
 #include "test_support.hpp"
 
 namespace mfpc {
@@ -34,7 +34,7 @@ const std::string identity = "[1,0,0,0, 0,1,0,0, 0,0,1,0, 0,0,0,1]";
 struct SceneFiles {
     test::TempDir dir;
     std::filesystem::path cloud, fovea, model;
-    ProceduralScene scene = make_procedural_scene();
+    PrimitiveScene scene = make_primitive_scene();
     SceneFiles()
     {
         cloud = dir / "scene.pcd";

@@ -17,7 +17,7 @@
 #include <gtest/gtest.h>
 
 #include "mfpc/core/error.hpp"
-#include "mfpc/tools/mesh.hpp"
+#include "mfpc/simulation/mesh.hpp"
 #include "test_support.hpp"
 #include "triangle_distance.hpp"
 

@@ -25,8 +25,8 @@
 #include "mfpc/recognition/ground_truth.hpp"
 #include "mfpc/recognition/model.hpp"
 #include "mfpc/recognition/params.hpp"
-#include "mfpc/tools/mesh.hpp"
-#include "mfpc/tools/png_image.hpp"
+#include "mfpc/simulation/mesh.hpp"
+#include "mfpc/rendering/png_image.hpp"
 #include "test_support.hpp"
 
 namespace mfpc {

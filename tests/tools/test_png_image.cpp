@@ -9,7 +9,7 @@
 
 #include "cli_runner.hpp"
 #include "mfpc/core/error.hpp"
-#include "mfpc/tools/png_image.hpp"
+#include "mfpc/rendering/png_image.hpp"
 #include "test_support.hpp"
 
 namespace mfpc {

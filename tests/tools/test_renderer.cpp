@@ -10,8 +10,8 @@
 #include <tbb/global_control.h>
 
 #include "mfpc/core/error.hpp"
-#include "mfpc/tools/procedural_scene.hpp"
-#include "mfpc/tools/renderer.hpp"
+#include "mfpc/simulation/primitive_scene.hpp"
+#include "mfpc/rendering/renderer.hpp"
 
 namespace mfpc {
 namespace {
@@ -266,7 +266,7 @@ TEST(Renderer, OverlaysShowRedWherePlaced)
 
 TEST(Renderer, OrbitZeroIsTheCameraView)
 {
-    const ProceduralScene scene = make_procedural_scene();
+    const PrimitiveScene scene = make_primitive_scene();
     RenderParams camera_params;
     RenderParams orbit_params;
     orbit_params.view = parse_render_view("orbit:0");
@@ -279,7 +279,7 @@ TEST(Renderer, OrbitZeroIsTheCameraView)
 
 TEST(Renderer, OrbitTurnsAboutTheCloudsCentre)
 {
-    const ProceduralScene scene = make_procedural_scene();
+    const PrimitiveScene scene = make_primitive_scene();
     const Eigen::Vector3f center = bounding_box(scene.cloud.points).center();
     const Eigen::Vector3f seen = render_camera(scene.cloud, {}).project(center);
     for (float degrees : {-90.0f, 30.0f, 45.0f, 180.0f}) {
@@ -302,7 +302,7 @@ TEST(Renderer, OrbitTurnsAboutTheCloudsCentre)
 
 TEST(Renderer, TopViewHoldsTheWholeCloud)
 {
-    const ProceduralScene scene = make_procedural_scene();
+    const PrimitiveScene scene = make_primitive_scene();
     RenderParams params;
     params.view.kind = ViewKind::top;
     const RenderCamera camera = render_camera(scene.cloud, params);
@@ -359,7 +359,7 @@ TEST(Renderer, SizeChangesResolutionNotFieldOfView)
 
 TEST(Renderer, SameImageWithOneThreadOrMany)
 {
-    const ProceduralScene scene = make_procedural_scene();
+    const PrimitiveScene scene = make_primitive_scene();
     std::vector<RenderOverlay> overlays(1);
     for (std::size_t i = 0; i < scene.cloud.size(); i += 7) {
         if (scene.objects[0].bounds.contains(scene.cloud.points[i])) overlays[0].points.push_back(scene.cloud.points[i]);

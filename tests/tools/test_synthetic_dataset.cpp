@@ -9,8 +9,8 @@
 #include "mfpc/recognition/ground_truth.hpp"
 #include "mfpc/recognition/model.hpp"
 #include "mfpc/recognition/recognize.hpp"
-#include "mfpc/tools/png_image.hpp"
-#include "mfpc/tools/synthetic_scene.hpp"
+#include "mfpc/rendering/png_image.hpp"
+#include "mfpc/simulation/synthetic_scene.hpp"
 #include "test_support.hpp"
 
 namespace mfpc {

@@ -9,7 +9,7 @@
 #include "mfpc/core/error.hpp"
 #include "mfpc/recognition/dataset.hpp"
 #include "mfpc/recognition/ground_truth.hpp"
-#include "mfpc/tools/synthetic_set.hpp"
+#include "mfpc/simulation/synthetic_set.hpp"
 #include "test_support.hpp"
 
 namespace mfpc {

@@ -11,9 +11,9 @@
 #include "mfpc/core/camera.hpp"
 #include "mfpc/core/error.hpp"
 #include "mfpc/index/neighbor_grid.hpp"
-#include "mfpc/tools/mesh.hpp"
-#include "mfpc/tools/synthetic_scene.hpp"
-#include "mfpc/tools/virtual_scanner.hpp"
+#include "mfpc/simulation/mesh.hpp"
+#include "mfpc/simulation/synthetic_scene.hpp"
+#include "mfpc/simulation/virtual_scanner.hpp"
 #include "triangle_distance.hpp"
 
 namespace mfpc {

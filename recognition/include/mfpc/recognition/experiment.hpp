@@ -51,6 +51,9 @@ struct StrategyOutcome {
     Evaluation evaluation;
     std::size_t instances = 0;
     std::vector<RecognitionTimings> timings;  // one per run (serial: summed over its structures)
+    // The points the strategy described (its first run's foveated cloud; a serial strategy's
+    // parts together), for pictures; empty for mode none, which describes the scene itself.
+    PointCloud foveated;
 };
 
 // Runs every strategy `runs` times in turn (strategy by strategy, so caches warm the same way for

@@ -5,6 +5,7 @@
 
 #include "mfpc/core/foveation_config.hpp"
 #include "mfpc/core/point_cloud.hpp"
+#include "mfpc/kernels/foveate.hpp"
 #include "mfpc/recognition/grouping.hpp"
 #include "mfpc/recognition/matching.hpp"
 #include "mfpc/recognition/model.hpp"
@@ -37,12 +38,16 @@ struct RecognitionResult {
     std::vector<Correspondence> correspondences;
     RecognitionCounts counts;
     RecognitionTimings timings;
+    // The foveated cloud that was described, when SceneFoveation::keep_cloud asked for it (and the
+    // scene was foveated); else empty.
+    FoveatedCloud foveated;
 };
 
 struct SceneFoveation {
     const FoveationConfig* config = nullptr;  // none: the plain pipeline
     FoveationMode mode = FoveationMode::mfpc;
     int single_structure = 0;
+    bool keep_cloud = false;  // return the foveated cloud in RecognitionResult::foveated
 };
 
 // The whole scene pipeline: foveate (optional), normals, keypoints (r per region when foveated),

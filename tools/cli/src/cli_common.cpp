@@ -1,0 +1,98 @@
+#include "cli_common.hpp"
+
+#include <filesystem>
+#include <iostream>
+#include <sstream>
+
+#include <unistd.h>
+
+#include <CLI/CLI.hpp>
+#include <tbb/global_control.h>
+
+#include "mfpc/core/atomic_file.hpp"
+
+namespace mfpc::cli {
+
+std::string json_text(const nlohmann::ordered_json& document)
+{
+    return document.dump(2, ' ', false, nlohmann::ordered_json::error_handler_t::replace) + '\n';
+}
+
+void write_json(const GlobalOptions& global, const nlohmann::ordered_json& result)
+{
+    if (!global.json_path.empty()) write_json(global, json_text(result));
+}
+
+void write_json(const GlobalOptions& global, const std::string& text)
+{
+    if (global.json_path.empty()) return;
+    if (global.json_path == "-") {
+        std::cout << text;
+        return;
+    }
+    write_file_atomically(global.json_path, [&](std::ofstream& out) { out << text; });
+}
+
+int active_threads()
+{
+    return int(tbb::global_control::active_value(tbb::global_control::max_allowed_parallelism));
+}
+
+void Progress::draw(std::size_t done, std::size_t total, const std::string& what)
+{
+    done = std::min(done, total);
+    const auto now = std::chrono::steady_clock::now();
+    const bool terminal = isatty(STDERR_FILENO);
+    if (!terminal && done != total && now - last_line_ < std::chrono::seconds(10)) return;
+    last_line_ = now;
+    const double seconds = std::chrono::duration<double>(now - start_).count();
+    const double rate = seconds > 0 ? double(done) / seconds : 0.0;
+    std::string timing = format_fixed(seconds, 0) + " s";
+    if (done > 0 && done < total) timing += ", " + format_fixed(double(total - done) / rate, 0) + " s left";
+    constexpr std::size_t width = 30;
+    const std::size_t filled = total > 0 ? done * width / total : width;
+    std::cerr << (terminal ? "\r[" : "[") << std::string(filled, '#') << std::string(width - filled, '.') << "] " << done
+              << "/" << total << "  " << format_fixed(rate, 2) << "/s  " << timing << "  " << what
+              << (terminal ? "    " : "\n") << std::flush;
+    if (terminal && done == total) std::cerr << '\n';
+}
+
+std::vector<std::string> split_list(const std::string& text)
+{
+    std::vector<std::string> items;
+    std::stringstream stream(text);
+    for (std::string item; std::getline(stream, item, ',');)
+        if (!item.empty()) items.push_back(item);
+    return items;
+}
+
+void warn(const std::string& message) { std::cerr << "mfpc: warning: " << message << '\n'; }
+
+void warn_if_truth_of_another_model(const std::string& truth_model, const std::string& model_file,
+                                    const std::string& truth_file)
+{
+    if (truth_model.empty() || model_file.empty()) return;
+    if (std::filesystem::path(truth_model).stem() == std::filesystem::path(model_file).stem()) return;
+    warn(truth_file + " is the ground truth of model " + truth_model + ", not of " +
+         std::filesystem::path(model_file).filename().string() + ": the evaluation scores against that model's poses");
+}
+
+std::pair<std::uint32_t, std::uint32_t> parse_size(const std::string& text, const std::string& option,
+                                                   std::uint32_t max_side)
+{
+    const std::size_t x = text.find('x');
+    auto side = [&](const std::string& digits) -> std::uint32_t {
+        if (digits.empty() || digits.size() > 6 || digits.find_first_not_of("0123456789") != std::string::npos) return 0;
+        const unsigned long value = std::stoul(digits);
+        return value <= max_side ? std::uint32_t(value) : 0;
+    };
+    const std::uint32_t width = x == std::string::npos ? 0 : side(text.substr(0, x));
+    const std::uint32_t height = x == std::string::npos ? 0 : side(text.substr(x + 1));
+    if (width == 0 || height == 0)
+        throw CLI::ValidationError(option, "'" + text + "' is not WIDTHxHEIGHT with sides 1.." + std::to_string(max_side));
+    return {width, height};
+}
+
+void print_rows(const std::vector<std::pair<std::string, std::string>>& rows) { std::cout << detail::key_value_rows(rows); }
+
+}  // namespace mfpc::cli

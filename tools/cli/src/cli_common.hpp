@@ -1,0 +1,87 @@
+#pragma once
+
+#include <chrono>
+#include <cstdint>
+#include <cstdio>
+#include <string>
+#include <vector>
+
+#include <nlohmann/json.hpp>
+#include <utility>
+
+#include "mfpc/core/detail/text_format.hpp"
+
+namespace mfpc::cli {
+
+// Options every command sees.
+struct GlobalOptions {
+    int threads = 0;        // 0: all cores
+    std::string json_path;  // "" none, "-" stdout
+    bool quiet = false;
+};
+
+// True when the human-readable output should go to stdout (it yields stdout to --json -).
+inline bool print_table(const GlobalOptions& global) { return !global.quiet && global.json_path != "-"; }
+
+// The document as indented JSON text with a final newline. Strings that are not UTF-8 (a file name
+// in another encoding, which a file system allows) get U+FFFD for their bad bytes instead of
+// failing the whole write after the work is done.
+std::string json_text(const nlohmann::ordered_json& document);
+
+// Writes the machine-readable result: to stdout for "-", else atomically to the file.
+void write_json(const GlobalOptions& global, const nlohmann::ordered_json& result);
+// The same for a result the library already wrote as JSON text.
+void write_json(const GlobalOptions& global, const std::string& text);
+
+// The worker threads this run may use (--threads, else all cores).
+int active_threads();
+
+void warn(const std::string& message);
+
+// Warns when a ground truth names a model other than the one being found (their file names differ
+// but for the extension: milk.pcd and milk.mfpcm are one model): scoring against another object's
+// poses is silently wrong. `model_file` is the model cloud's path (a cache's source); either name
+// empty checks nothing.
+void warn_if_truth_of_another_model(const std::string& truth_model, const std::string& model_file,
+                                    const std::string& truth_file);
+
+using detail::format_fixed;
+using detail::group_digits;
+
+// "640x480" -> (640, 480); throws CLI::ValidationError naming `option` for anything else or a side
+// outside 1..max_side.
+std::pair<std::uint32_t, std::uint32_t> parse_size(const std::string& text, const std::string& option,
+                                                   std::uint32_t max_side = 16384);
+
+// "a,b,,c" -> {"a", "b", "c"}: a comma-separated option's items, empty ones dropped.
+std::vector<std::string> split_list(const std::string& text);
+
+// A two-column table with aligned keys.
+void print_rows(const std::vector<std::pair<std::string, std::string>>& rows);
+
+// A progress bar on stderr with the rate and the time left, redrawn in place on a terminal; in a
+// log (stderr not a terminal) a plain line every 10 seconds and at the end.
+class Progress {
+public:
+    void draw(std::size_t done, std::size_t total, const std::string& what);
+
+private:
+    std::chrono::steady_clock::time_point start_ = std::chrono::steady_clock::now();
+    std::chrono::steady_clock::time_point last_line_ = start_;
+};
+
+class Stopwatch {
+public:
+    double lap_ms()
+    {
+        const auto now = std::chrono::steady_clock::now();
+        const double ms = std::chrono::duration<double, std::milli>(now - last_).count();
+        last_ = now;
+        return ms;
+    }
+
+private:
+    std::chrono::steady_clock::time_point last_ = std::chrono::steady_clock::now();
+};
+
+}  // namespace mfpc::cli
