@@ -11,6 +11,7 @@ packages=(
   libcli11-dev nlohmann-json3-dev libpng-dev gnuplot-nox
   jq  # scripts/compare-outputs.sh
   libopen3d-dev  # bench/ only: the Open3D baseline of bench_baselines
+  doxygen  # the docs target: the API reference from the public headers
 )
 
 missing=()

@@ -1,10 +1,13 @@
 #pragma once
 
-// Conversions between mfpc::PointCloud and PCL clouds, for code that already uses PCL (tests,
-// benchmarks, users migrating a pipeline). This is the only mfpc header that includes PCL, and no
-// other mfpc header includes it: the library itself never needs PCL, and including it costs
-// seconds of compile time, so only translation units that want the bridge pay for it. Header-only,
-// so the mfpc libraries do not link PCL either.
+/// @file
+/// @brief Conversions between mfpc::PointCloud and PCL clouds, for code that already uses PCL
+/// (tests, benchmarks, users migrating a pipeline).
+///
+/// This is the only mfpc header that includes PCL, and no other mfpc header includes it: the
+/// library itself never needs PCL, and including it costs seconds of compile time, so only
+/// translation units that want the bridge pay for it. Header-only, so the mfpc libraries do not
+/// link PCL either.
 
 #include <cmath>
 #include <cstddef>
@@ -51,9 +54,17 @@ inline void finish_from_pcl(PointCloud& cloud, std::size_t count)
 
 }  // namespace detail
 
-// The finite points of `in` (x, y and z finite), each with its row-major position in `in` as the
-// source index, so an organized (dense or not) PCL cloud keeps its pixel coordinates as a cloud
-// read by read_cloud does. One pass, one copy.
+/// @brief The finite points of `in` (x, y and z finite), each with its row-major position in `in`
+/// as the source index, so an organized (dense or not) PCL cloud keeps its pixel coordinates as a
+/// cloud read by read_cloud does. One pass, one copy.
+///
+/// A PCL cloud whose width x height disagrees with its size (built by hand) is taken as the
+/// unorganized list it really is. As in read_cloud, the index map is left empty when every point
+/// was kept (the identity).
+/// @param in The PCL cloud.
+/// @return The mfpc cloud of its finite points.
+/// @throws mfpc::Error (where "from_pcl") when `in` holds more points than a 32-bit source index
+/// can address.
 inline PointCloud from_pcl(const pcl::PointCloud<pcl::PointXYZ>& in)
 {
     PointCloud cloud = detail::begin_from_pcl(in.width, in.height, in.size(), false);
@@ -67,7 +78,12 @@ inline PointCloud from_pcl(const pcl::PointCloud<pcl::PointXYZ>& in)
     return cloud;
 }
 
-// As above, with the colour of each kept point (alpha is dropped).
+/// @brief As from_pcl(const pcl::PointCloud<pcl::PointXYZ>&), with the colour of each kept point
+/// (alpha is dropped).
+/// @param in The PCL cloud.
+/// @return The mfpc cloud of its finite points, with colours.
+/// @throws mfpc::Error (where "from_pcl") when `in` holds more points than a 32-bit source index
+/// can address.
 inline PointCloud from_pcl(const pcl::PointCloud<pcl::PointXYZRGBA>& in)
 {
     PointCloud cloud = detail::begin_from_pcl(in.width, in.height, in.size(), true);
@@ -82,7 +98,10 @@ inline PointCloud from_pcl(const pcl::PointCloud<pcl::PointXYZRGBA>& in)
     return cloud;
 }
 
-// The points of `cloud` as an unorganized, dense PCL cloud (width = size, height = 1), in order.
+/// @brief The points of `cloud` as an unorganized, dense PCL cloud (width = size, height = 1), in
+/// order. Normals, colours and source positions are not carried over.
+/// @param cloud The mfpc cloud.
+/// @return The PCL cloud of its points.
 inline pcl::PointCloud<pcl::PointXYZ> to_pcl(const PointCloud& cloud)
 {
     pcl::PointCloud<pcl::PointXYZ> out;

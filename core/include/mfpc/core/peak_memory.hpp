@@ -1,5 +1,8 @@
 #pragma once
 
+/// @file
+/// @brief The process's peak resident memory, for the memory figures of runs and benchmarks.
+
 #include <cstddef>
 
 namespace mfpc {
@@ -14,6 +17,9 @@ bool reset_peak_memory();
 
 /// @brief The process's peak resident memory in bytes since it started or since the last
 /// successful reset_peak_memory(); 0 when the system does not say.
+///
+/// Read from the kernel's VmHWM; where there is no /proc, getrusage's peak, which cannot be reset.
+/// @return The peak in bytes, or 0.
 std::size_t peak_memory_bytes();
 
 }  // namespace mfpc

@@ -1,5 +1,9 @@
 #pragma once
 
+/// @file
+/// @brief NeighborGrid, the exact radius and k-nearest search of the descriptor kernels, and
+/// Neighborhoods, radius neighbourhoods computed once and shared between kernels.
+
 #include <cstdint>
 #include <span>
 #include <vector>
@@ -8,86 +12,153 @@
 
 namespace mfpc {
 
-// The radius neighbourhoods of many centres, packed one after another: centre i's neighbours are
-// entries [offsets[i], offsets[i + 1]) of indices and squared_distances, in radius_search's order.
-// Kernels that each need a support of at most `radius` around the same centres (the LRF and SHOT
-// of the keypoints) read them here instead of each searching again.
+/// @brief The radius neighbourhoods of many centres, packed one after another: centre i's
+/// neighbours are entries [offsets[i], offsets[i + 1]) of indices and squared_distances, in
+/// radius_search's order.
+///
+/// Kernels that each need a support of at most `radius` around the same centres (the LRF and SHOT
+/// of the keypoints) read them here instead of each searching again. Made by
+/// NeighborGrid::radius_neighborhoods.
 struct Neighborhoods {
-    std::span<const Point> surface;  // the searched grid's points, which indices number
-    std::vector<Point> centers;
-    float radius = 0.0f;
-    std::vector<std::size_t> offsets{0};
-    std::vector<std::uint32_t> indices;
-    std::vector<float> squared_distances;
+    std::span<const Point> surface;  ///< The searched grid's points, which indices number.
+    std::vector<Point> centers;      ///< The centres, in the order they were given.
+    float radius = 0.0f;             ///< The search radius (squared distance < radius^2).
+    std::vector<std::size_t> offsets{0};  ///< size() + 1 entries into indices and squared_distances.
+    std::vector<std::uint32_t> indices;   ///< The neighbours' indices into surface, centre after centre.
+    std::vector<float> squared_distances;  ///< The neighbours' squared distances, as indices.
 
+    /// @brief The number of centres.
+    /// @return offsets.size() - 1.
     std::size_t size() const { return offsets.size() - 1; }
-    // Whether these are neighbourhoods in `points` of exactly `at` (bit for bit): what a kernel
-    // given them in place of its own searches must check.
+    /// @brief Whether these are neighbourhoods in `points` of exactly `at` (bit for bit): what a
+    /// kernel given them in place of its own searches must check.
+    /// @param points The surface the kernel searches (the same storage and size as surface).
+    /// @param at The kernel's centres (compared bit for bit with centers).
+    /// @return Whether both match.
     bool is_of(std::span<const Point> points, std::span<const Point> at) const;
-    // Throws mfpc::Error (naming `where`) unless these are neighbourhoods in `points` of `at`
-    // reaching at least `needed`: the check of a kernel given them, for `what` it computes.
+    /// @brief The check of a kernel given these neighbourhoods, for `what` it computes.
+    /// @param points The surface the kernel searches.
+    /// @param at The kernel's centres.
+    /// @param needed The radius the kernel needs.
+    /// @param where The kernel, for the error.
+    /// @param what What the kernel computes, for the error.
+    /// @throws mfpc::Error (naming `where`) unless these are neighbourhoods in `points` of `at`
+    /// reaching at least `needed`.
     void check_serves(std::span<const Point> points, std::span<const Point> at, float needed, const char* where,
                       const char* what) const;
+    /// @brief Centre `center`'s neighbours.
+    /// @param center A centre, below size().
+    /// @return Their indices into surface, in radius_search's order.
     std::span<const std::uint32_t> indices_of(std::size_t center) const
     {
         return std::span<const std::uint32_t>(indices).subspan(offsets[center], offsets[center + 1] - offsets[center]);
     }
+    /// @brief Centre `center`'s neighbours' squared distances.
+    /// @param center A centre, below size().
+    /// @return Their squared distances, in the order of indices_of(center).
     std::span<const float> squared_distances_of(std::size_t center) const
     {
         return std::span<const float>(squared_distances)
             .subspan(offsets[center], offsets[center + 1] - offsets[center]);
     }
-    // Centre i's neighbours with squared distance < radius^2 (radius <= this->radius) into the
-    // cleared vectors, in the same order: what radius_search(centre, radius) finds.
+    /// @brief Centre `center`'s neighbours with squared distance < radius^2 (radius <=
+    /// this->radius) into the cleared vectors, in the same order: what radius_search(centre,
+    /// radius) finds.
+    /// @param center A centre, below size().
+    /// @param radius The smaller radius.
+    /// @param indices Receives the neighbours' indices into surface.
+    /// @param squared_distances Receives their squared distances.
+    /// @throws mfpc::Error when `radius` is larger than this->radius (or not a number).
     void within(std::size_t center, float radius, std::vector<std::uint32_t>& indices,
                 std::vector<float>& squared_distances) const;
 };
 
-// A hashed uniform grid over a cloud for the fixed-radius and k-nearest queries of the descriptor
-// kernels (normals, LRFs, SHOT). Built once in O(n) (a radix sort by cell); points are copied in
-// cell order so a query reads contiguous memory. Exact: a radius query returns every point with squared distance
-// < radius^2 (strictly, as FLANN), the k-nearest query the k smallest squared distances (ties by
-// the lower index).
-// Squared distances are computed in float as dx*dx + dy*dy + dz*dz, in that order, which is what
-// FLANN (PCL's kd-tree) computes, so both agree on which points lie within a radius.
+/// @brief A hashed uniform grid over a cloud for the fixed-radius and k-nearest queries of the
+/// descriptor kernels (normals, LRFs, SHOT).
+///
+/// Built once in O(n) (a radix sort by cell); points are copied in cell order so a query reads
+/// contiguous memory. Exact: a radius query returns every point with squared distance < radius^2
+/// (strictly, as FLANN), the k-nearest query the k smallest squared distances (ties by the lower
+/// index). Squared distances are computed in float as `dx*dx + dy*dy + dz*dz`, in that order, which
+/// is what FLANN (PCL's kd-tree) computes, so both agree on which points lie within a radius.
 class NeighborGrid {
 public:
-    // `cell_size` > 0: about the query radius for radius queries; a few point spacings for kNN.
-    // Throws mfpc::Error for a point not finite or more than 1e9 cells from the origin. A few
-    // points far from the rest (strays kilometres out) are fine: only occupied cells take memory.
+    /// @brief Builds the grid over `points`. A few points far from the rest (strays kilometres
+    /// out) are fine: only occupied cells take memory.
+    /// @param points The cloud. Searches read a copy in cell order; points() is a view of the
+    /// caller's points.
+    /// @param cell_size The cell edge, > 0: about the query radius for radius queries; a few point
+    /// spacings for kNN.
+    /// @throws mfpc::Error for a cell size that is not positive and finite, 2^32 - 1 points or
+    /// more, or a point not finite or more than 1e9 cells from the origin.
     NeighborGrid(std::span<const Point> points, float cell_size);
 
+    /// @brief The cloud the grid was built over.
+    /// @return A view of the caller's points, which result indices number.
     std::span<const Point> points() const { return points_; }
+    /// @brief The cell edge.
+    /// @return The cell size the grid was built with.
     float cell_size() const { return cell_size_; }
+    /// @brief The number of points.
+    /// @return points().size().
     std::size_t size() const { return points_.size(); }
-    std::size_t largest_cell() const;  // the points of the fullest cell
+    /// @brief The points of the fullest cell.
+    /// @return How many points the fullest cell holds.
+    std::size_t largest_cell() const;
 
-    // Indices (into points()) and squared distances of the points within `radius` of `center`,
-    // written into the cleared vectors. The order is fixed (cell by cell, ascending index within
-    // a cell) but not by distance.
+    /// @brief Indices (into points()) and squared distances of the points within `radius` of
+    /// `center` (squared distance < radius^2), written into the cleared vectors. The order is fixed
+    /// (cell by cell, ascending index within a cell) but not by distance.
+    /// @param center The query.
+    /// @param radius The search radius.
+    /// @param indices Receives the indices.
+    /// @param squared_distances Receives the squared distances, in the order of `indices`.
     void radius_search(const Point& center, float radius, std::vector<std::uint32_t>& indices,
                        std::vector<float>& squared_distances) const;
 
-    // How many points radius_search reads around `center` (those of the cells its search spans):
-    // a bound of how many it finds, for the cost of the row lookups alone.
+    /// @brief How many points radius_search reads around `center` (those of the cells its search
+    /// spans): a bound of how many it finds, for the cost of the row lookups alone.
+    /// @param center The query.
+    /// @param radius The search radius.
+    /// @return The number of candidates radius_search would test.
     std::size_t candidate_count(const Point& center, float radius) const;
 
-    // radius_search around every centre, in parallel (the same result at any thread count).
-    // Throws mfpc::Error for a radius that is not positive and finite.
+    /// @brief radius_search around every centre, in parallel (the same result at any thread count).
+    /// @param centers The centres.
+    /// @param radius The search radius.
+    /// @return The neighbourhoods of the centres, in the order given.
+    /// @throws mfpc::Error for a radius that is not positive and finite, or 2^32 - 1 centres or more.
     Neighborhoods radius_neighborhoods(std::span<const Point> centers, float radius) const;
 
-    // The min(k, size()) nearest points to `center`, by ascending (squared distance, index).
-    // Throws mfpc::Error for a centre that is not finite (so does knn_search_batch).
+    /// @brief The min(k, size()) nearest points to `center`, by ascending (squared distance, index).
+    /// @param center The query.
+    /// @param k The number of neighbours; none for k <= 0.
+    /// @param indices Receives the indices (cleared first).
+    /// @param squared_distances Receives the squared distances (cleared first).
+    /// @throws mfpc::Error for a centre that is not finite.
     void knn_search(const Point& center, int k, std::vector<std::uint32_t>& indices,
                     std::vector<float>& squared_distances) const;
 
-    // knn_search for many queries at once, with the same results: queries that share a cell share
-    // the gathering of their candidates (the 3x3x3 cells around it), which is most of the cost of
-    // a small-k query. Writes min(k, size()) entries per query, query after query.
+    /// @brief knn_search for many queries at once, with the same results: queries that share a
+    /// cell share the gathering of their candidates (the 3x3x3 cells around it), which is most of
+    /// the cost of a small-k query.
+    /// @param queries The queries.
+    /// @param k The number of neighbours per query.
+    /// @param indices Receives min(k, size()) entries per query, query after query.
+    /// @param squared_distances Receives the squared distances, as `indices`.
+    /// @throws mfpc::Error for spans that do not hold min(k, size()) entries per query, or a query
+    /// that is not finite.
     void knn_search_batch(std::span<const Point> queries, int k, std::span<std::uint32_t> indices,
                           std::span<float> squared_distances) const;
 
-    // The nearest point within `radius` of `center` (ties: the lower index); false when none.
+    /// @brief The nearest point within `radius` of `center` (squared distance < radius^2; ties: the
+    /// lower index).
+    /// @param center The query.
+    /// @param radius The search radius.
+    /// @param index Receives the point's index when one is found.
+    /// @param squared_distance Receives its squared distance when one is found.
+    /// @return Whether a point was found: false when none (also for a negative radius or a centre
+    /// that is not finite).
     bool nearest(const Point& center, float radius, std::uint32_t& index, float& squared_distance) const;
 
 private:

@@ -1,5 +1,9 @@
 #pragma once
 
+/// @file
+/// @brief OrganizedNeighbors, exact k-nearest and nearest-within-a-radius search over a depth
+/// image.
+
 #include <cstddef>
 #include <cstdint>
 #include <memory>
@@ -13,48 +17,81 @@
 
 namespace mfpc {
 
-// Exact k-nearest and nearest-within-a-radius search over an organized cloud (a depth image), for
-// normal estimation and ICP on sensor clouds. On a Kinect view the distance to the 10th neighbour
-// ranges from 2 mm to over 14 mm (the oblique floor), so no grid cell suits every query; the image
-// does: the candidates are the points of the (2w+1)^2 pixels around the query's pixel. They hold
-// the answer when it lies closer than any point outside the window can: such a point projects w+1
-// pixels away or more, so it lies beyond one of four planes through the sensor, whose distance from
-// the query bounds it (the camera's fit residual is taken off the window). Queries the bound cannot
-// settle try windows twice as wide, within a budget of a few pixels per cloud point for a search;
-// the rest go to a NeighborGrid over the cloud, built on first need. The results are
-// NeighborGrid's, bit for bit.
+/// @brief Exact k-nearest and nearest-within-a-radius search over an organized cloud (a depth
+/// image), for normal estimation and ICP on sensor clouds.
+///
+/// On a Kinect view the distance to the 10th neighbour ranges from 2 mm to over 14 mm (the oblique
+/// floor), so no grid cell suits every query; the image does: the candidates are the points of the
+/// (2w+1)^2 pixels around the query's pixel. They hold the answer when it lies closer than any
+/// point outside the window can: such a point projects w+1 pixels away or more, so it lies beyond
+/// one of four planes through the sensor, whose distance from the query bounds it (the camera's fit
+/// residual is taken off the window). Queries the bound cannot settle try windows twice as wide,
+/// within a budget of a few pixels per cloud point for a search; the rest go to a NeighborGrid over
+/// the cloud, built on first need. The results are NeighborGrid's, bit for bit.
 class OrganizedNeighbors {
 public:
-    // The cloud's points are referred to, not copied: they must outlive this and stay unchanged.
-    // `camera` fitted to the cloud (fit_camera: the bounds take its residual off the windows, so a
-    // camera whose max_residual understates how far points project from their pixels gives wrong
-    // answers); `window` the first k-nearest window's half width; `fallback_cell` the cell of the
-    // grid for what the windows cannot settle. Throws mfpc::Error for a cloud that is not
-    // organized on the camera's grid, a point not finite or at z <= 0, two points on one pixel,
-    // or a point more than 5e8 of the fallback grid's cells from the sensor.
+    /// @brief Prepares the search over an organized cloud. The cloud's points are referred to, not
+    /// copied: they must outlive this and stay unchanged.
+    /// @param cloud The organized cloud, on the camera's width x height grid.
+    /// @param camera The camera fitted to the cloud (fit_camera: the bounds take its residual off
+    /// the windows, so a camera whose max_residual understates how far points project from their
+    /// pixels gives wrong answers).
+    /// @param window The first k-nearest window's half width (pixels, at least 1).
+    /// @param fallback_cell The cell of the grid for what the windows cannot settle (metres).
+    /// @throws mfpc::Error for a cloud that is not organized on the camera's grid, a camera with
+    /// focal lengths not positive or a centre or residual not finite, a window below 1, a fallback
+    /// cell that is not positive and finite, a point not finite or at z <= 0, two points on one
+    /// pixel, or a point more than 5e8 of the fallback grid's cells from the sensor.
     OrganizedNeighbors(const PointCloud& cloud, const Camera& camera, int window = 3, float fallback_cell = 0.005f);
+    /// @brief Deleted: the search refers to the cloud's points, which a temporary would leave
+    /// dangling.
     OrganizedNeighbors(PointCloud&&, const Camera&, int = 3, float = 0.005f) = delete;
+    /// @brief Frees the windows and the fallback grid.
     ~OrganizedNeighbors();
-    // A moved-from object may only be destroyed or assigned to; its searches throw.
+    /// @brief Moves the search. A moved-from object may only be destroyed or assigned to; its
+    /// searches throw.
     OrganizedNeighbors(OrganizedNeighbors&&) noexcept;
+    /// @brief Move-assigns the search. A moved-from object may only be destroyed or assigned to;
+    /// its searches throw.
+    /// @return This object.
     OrganizedNeighbors& operator=(OrganizedNeighbors&&) noexcept;
 
+    /// @brief The cloud's points.
+    /// @return A view of the caller's points, which result indices number.
     std::span<const Point> points() const { return points_; }
+    /// @brief The number of points.
+    /// @return points().size().
     std::size_t size() const { return points_.size(); }
+    /// @brief The camera the search was built with.
+    /// @return The camera.
     const Camera& camera() const { return camera_; }
 
-    // As NeighborGrid::knn_search_batch: the min(k, size) nearest points of each query, by
-    // ascending (squared distance, index).
+    /// @brief As NeighborGrid::knn_search_batch: the min(k, size) nearest points of each query, by
+    /// ascending (squared distance, index).
+    /// @param queries The queries.
+    /// @param k The number of neighbours per query.
+    /// @param indices Receives min(k, size()) entries per query, query after query.
+    /// @param squared_distances Receives the squared distances, as `indices`.
+    /// @throws mfpc::Error for spans that do not hold min(k, size()) entries per query, a query that
+    /// is not finite, or a moved-from object.
     void knn_search_batch(std::span<const Point> queries, int k, std::span<std::uint32_t> indices,
                           std::span<float> squared_distances) const;
 
+    /// The index nearest_batch gives a query with no point within the radius.
     static constexpr std::uint32_t no_point = 0xffffffffu;
-    // As NeighborGrid::nearest for each query: the nearest point with squared distance < radius^2
-    // (the lower index on a tie), or no_point (and its squared distance left alone) when none.
+    /// @brief As NeighborGrid::nearest for each query: the nearest point with squared distance <
+    /// radius^2 (the lower index on a tie), or no_point (and its squared distance left alone) when
+    /// none. A query that is not finite is near nothing.
+    /// @param queries The queries.
+    /// @param radius The search radius.
+    /// @param indices Receives one index per query, or no_point.
+    /// @param squared_distances Receives one squared distance per query where a point is found.
+    /// @throws mfpc::Error for spans that do not hold one entry per query, or a moved-from object.
     void nearest_batch(std::span<const Point> queries, float radius, std::span<std::uint32_t> indices,
                        std::span<float> squared_distances) const;
 
-    // Whether the fallback grid has been built: false while the windows have settled every query.
+    /// @brief Whether the fallback grid has been built.
+    /// @return False while the windows have settled every query.
     bool built_fallback() const;
 
 private:

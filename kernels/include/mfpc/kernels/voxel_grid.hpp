@@ -1,5 +1,9 @@
 #pragma once
 
+/// @file
+/// @brief Voxel-grid resampling of a cloud to one point per occupied voxel (the working
+/// resolution).
+
 #include <cstdint>
 #include <span>
 #include <vector>
@@ -22,8 +26,11 @@ struct VoxelGrid {
 /// What a sensor's sampling leaves in a cloud (points per area growing with 1/z² and with the
 /// focal length, terraces of quantized depth) is gone at a resolution coarser than the sensor's
 /// pixel footprint: the result has one point per voxel of surface, whatever the sensor or distance.
+/// @param points The cloud.
+/// @param voxel The voxel edge (metres).
+/// @return The centroid and the lowest point index of each occupied voxel.
 /// @throws mfpc::Error for a voxel that is not positive and finite, a point that is not finite,
-/// or a point more than 2^30 voxels from the origin.
+/// a point more than 2^30 voxels from the origin, or more points than 32-bit indices can number.
 VoxelGrid voxel_grid(std::span<const Point> points, float voxel);
 
 }  // namespace mfpc

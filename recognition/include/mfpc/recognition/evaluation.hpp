@@ -1,5 +1,9 @@
 #pragma once
 
+/// @file
+/// @brief Scoring a recognition result against ground truth (paper Eq. 10 and 11, instance
+/// matching).
+
 #include <vector>
 
 #include "mfpc/recognition/ground_truth.hpp"
@@ -7,30 +11,42 @@
 
 namespace mfpc {
 
+/// @brief The tolerances of evaluate().
 struct EvaluationParams {
-    float correspondence_tolerance = 0.01f;  // scene keypoint within this of the true model keypoint
-    float instance_translation = 0.02f;      // an instance is correct within 2 cm ...
-    float instance_angle_deg = 10.0f;        // ... and 10 degrees of an unclaimed true instance
+    float correspondence_tolerance = 0.01f;  ///< Scene keypoint within this of the true model keypoint (m).
+    float instance_translation = 0.02f;      ///< An instance is correct within 2 cm ...
+    float instance_angle_deg = 10.0f;        ///< ... and 10 degrees of an unclaimed true instance.
 };
 
+/// @brief How a recognition result compares with the ground truth.
 struct Evaluation {
-    std::size_t instances_true = 0;
-    std::size_t instances_false = 0;
-    std::size_t instances_missed = 0;
-    std::size_t correct_correspondences = 0;
-    std::size_t possible_correspondences = 0;  // (model keypoint, true instance) pairs with a scene keypoint within tolerance
-    double correspondence_precision = 0;      // correct / all (Eq. 10)
-    double correspondence_sensitivity = 0;    // distinct pairs found correct / possible (Eq. 11)
-    std::vector<int> instance_match;          // per found instance: the true instance it matches, or -1
-    std::vector<float> position_error;        // per found instance: model centroid offset from the nearest true pose (m)
-    std::vector<float> rotation_error_deg;    // ... and rotation difference to it
+    std::size_t instances_true = 0;    ///< Found instances matched to a true instance.
+    std::size_t instances_false = 0;   ///< Found instances matched to none.
+    std::size_t instances_missed = 0;  ///< True instances no found instance matched.
+    std::size_t correct_correspondences = 0;  ///< Correspondences that are correct (see evaluate()).
+    /// (model keypoint, true instance) pairs with a scene keypoint within tolerance.
+    std::size_t possible_correspondences = 0;
+    double correspondence_precision = 0;      ///< Correct / all (Eq. 10); 0 without correspondences.
+    /// Distinct pairs found correct / possible (Eq. 11); 0 when none is possible.
+    double correspondence_sensitivity = 0;
+    std::vector<int> instance_match;          ///< Per found instance: the true instance it matches, or -1.
+    /// Per found instance: model centroid offset from the nearest true pose (m).
+    std::vector<float> position_error;
+    std::vector<float> rotation_error_deg;    ///< ... and rotation difference to it (degrees).
 };
 
-// Scores a recognition result against ground truth: a correspondence is correct when its scene
-// keypoint lies within correspondence_tolerance of its model keypoint mapped by some true
-// instance's transform; found instances are matched greedily (in result order) to the nearest
-// unclaimed true instance within the translation and angle limits. For a symmetric object (the
-// ground truth's "symmetry"), each of its equivalent transforms counts as the true one.
+/// @brief Scores a recognition result against ground truth.
+///
+/// A correspondence is correct when its scene keypoint lies within correspondence_tolerance of its
+/// model keypoint mapped by some true instance's transform; found instances are matched greedily
+/// (in result order) to the nearest unclaimed true instance within the translation and angle
+/// limits. For a symmetric object (the ground truth's "symmetry"), each of its equivalent
+/// transforms counts as the true one.
+/// @param result The recognition result: its correspondences and instances.
+/// @param model The model recognised, whose keypoints the correspondences number.
+/// @param truth The scene's ground truth.
+/// @param params The tolerances.
+/// @return The scores.
 Evaluation evaluate(const RecognitionResult& result, const Model& model, const GroundTruth& truth,
                     const EvaluationParams& params = {});
 

@@ -1,5 +1,9 @@
 #pragma once
 
+/// @file
+/// @brief Hypothesis refinement (ICP) and verification against the scene: fitness, coverage,
+/// thickness, free space and continuation.
+
 #include <optional>
 #include <span>
 #include <vector>
@@ -13,41 +17,63 @@
 
 namespace mfpc {
 
-// What verification compares instances with: the scene's points, an index to search them and, for
-// organized scenes, its depth image and camera for the free-space test.
+/// @brief What verification compares instances with: the scene's points, an index to search them
+/// and, for organized scenes, its depth image and camera for the free-space test.
 struct SceneEvidence {
-    std::span<const Point> points;
-    // Where the scene points near a model point are found: the depth image of an organized scene,
-    // else a grid over points (cells of a few sensor spacings suit it best).
+    std::span<const Point> points;  ///< The scene's points.
+    /// Where the scene points near a model point are found: the depth image of an organized scene,
+    /// else a grid over points (cells of a few sensor spacings suit it best).
     const OrganizedNeighbors* organized = nullptr;
+    /// The grid over points, when there is no depth image (see organized).
     const NeighborGrid* grid = nullptr;
-    std::optional<Camera> camera;
-    std::vector<float> depth;  // camera->width * height, NaN where no return
+    std::optional<Camera> camera;  ///< The scene's camera; nothing for an unorganized scene (no free-space test).
+    std::vector<float> depth;  ///< camera->width * height, NaN where no return.
 };
-// `camera`: fit_camera(scene), or nothing for an unorganized scene (no free-space test then).
+/// @brief The evidence of a scene searched through a grid.
+/// @param scene The scene cloud.
+/// @param grid A grid over the scene's points.
+/// @param camera fit_camera(scene), or nothing for an unorganized scene (no free-space test then).
+/// @return The evidence, with the scene's depth image when there is a camera.
 SceneEvidence make_scene_evidence(const PointCloud& scene, const NeighborGrid& grid, std::optional<Camera> camera);
-// An organized scene: `organized` built over it, with its camera.
+/// @brief The evidence of an organized scene searched through its depth image.
+/// @param scene The organized scene cloud.
+/// @param organized The search built over it, with its camera.
+/// @return The evidence, with the scene's depth image and camera.
+/// @throws mfpc::Error when `organized` is not over the scene's points.
 SceneEvidence make_scene_evidence(const PointCloud& scene, const OrganizedNeighbors& organized);
 
-// ICP (point to point, Umeyama per iteration) of each instance's model onto the scene, starting
-// from its pose; then fitness: the fraction of the model points the sensor could have seen (normal
-// within 75 degrees of the ray to the origin, not hidden behind a nearer observed surface) that
-// have a scene point within inlier_distance; the coverage: inliers over all the model points facing
-// the sensor, hidden or not (how much of the side of the model turned to the sensor the scene
-// explains: for a model sampled all around an object, its back can never be seen, so it does not
-// count, nor can a side seen nearly edge on); the thickness ratio (the fitting points' spread off
-// their best plane over the facing side's: a model face flush on a table is no evidence of the
-// object); the free-space violation: the fraction of all model points projecting onto an observed
-// pixel whose surface, and that of every pixel around it, lies more than free_space_margin behind
-// them (a solid object there would have stopped the ray, so it cannot be there); and the
-// continuation: of the probes just past the edges of the fitting part of the model, the fraction
-// where the scene's surface goes on rather than the sensor seeing past them (a pose slid along its
-// object's face leaves the rest of the object there). Instances failing the limits are dropped.
-// Duplicates (placed models overlapping: merge_overlap of one's points within merge_distance of the
-// other's): instances are taken in the order given (grouping's: most votes first), and one that
-// starts on the place of a settled instance accepted before it (fitness at least 0.99) is dropped
-// before its ICP; two accepted ones that overlap once refined keep the one with the better fitness.
-// `model_points`/`model_normals` are the model cloud; instances keep their order otherwise.
+/// @brief Refines each instance by ICP, then keeps those the scene supports.
+///
+/// ICP (point to point, Umeyama per iteration) of each instance's model onto the scene, starting
+/// from its pose; then fitness: the fraction of the model points the sensor could have seen (normal
+/// within 75 degrees of the ray to the origin, not hidden behind a nearer observed surface) that
+/// have a scene point within inlier_distance; the coverage: inliers over all the model points facing
+/// the sensor, hidden or not (how much of the side of the model turned to the sensor the scene
+/// explains: for a model sampled all around an object, its back can never be seen, so it does not
+/// count, nor can a side seen nearly edge on); the thickness ratio (the fitting points' spread off
+/// their best plane over the facing side's: a model face flush on a table is no evidence of the
+/// object); the free-space violation: the fraction of all model points projecting onto an observed
+/// pixel whose surface, and that of every pixel around it, lies more than free_space_margin behind
+/// them (a solid object there would have stopped the ray, so it cannot be there); and the
+/// continuation: of the probes just past the edges of the fitting part of the model, the fraction
+/// where the scene's surface goes on rather than the sensor seeing past them (a pose slid along its
+/// object's face leaves the rest of the object there). Instances failing the limits are dropped.
+///
+/// Duplicates (placed models overlapping: merge_overlap of one's points within merge_distance of the
+/// other's): instances are taken in the order given (grouping's: most votes first), and one that
+/// starts on the place of a settled instance accepted before it (fitness at least 0.99) is dropped
+/// before its ICP; two accepted ones that overlap once refined keep the one with the better fitness.
+/// Instances keep their order otherwise.
+/// @param instances The hypotheses, in grouping's order.
+/// @param model_points The model cloud.
+/// @param model_normals The model cloud's normals, one per point.
+/// @param scene The scene's evidence.
+/// @param refine The ICP parameters; refine.enabled says whether ICP runs.
+/// @param verify The limits and the merging of duplicates; verify.enabled says whether they apply.
+/// @return The refined instances that pass the limits, with their scores; `instances` unchanged
+/// when both refinement and verification are disabled.
+/// @throws mfpc::Error when the model's normals are not one per point, or the evidence has no
+/// scene index.
 std::vector<Instance> refine_and_verify(std::vector<Instance> instances, std::span<const Point> model_points,
                                         std::span<const Point> model_normals, const SceneEvidence& scene,
                                         const RefineParams& refine, const VerifyParams& verify);
