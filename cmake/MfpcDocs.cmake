@@ -13,12 +13,6 @@ set(MFPC_DOCS_INPUTS
 
 # Headers left out of the reference.
 set(MFPC_DOCS_EXCLUDE
-  # Internal helpers, to be moved out of the installed headers: never documented here.
-  ${PROJECT_SOURCE_DIR}/core/include/mfpc/core/slot_table.hpp
-  ${PROJECT_SOURCE_DIR}/core/include/mfpc/core/floor.hpp
-  ${PROJECT_SOURCE_DIR}/core/include/mfpc/core/json_check.hpp
-  ${PROJECT_SOURCE_DIR}/core/include/mfpc/core/text_file.hpp
-  ${PROJECT_SOURCE_DIR}/core/include/mfpc/core/atomic_file.hpp
   # Public headers not documented yet (being changed): each is taken off this list when its
   # Doxygen comments are written.
   ${PROJECT_SOURCE_DIR}/core/include/mfpc/core/foveated_structure.hpp

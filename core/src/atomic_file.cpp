@@ -1,4 +1,4 @@
-#include "mfpc/core/atomic_file.hpp"
+#include "mfpc/core/detail/atomic_file.hpp"
 
 #include <exception>
 #include <random>

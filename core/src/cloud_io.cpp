@@ -7,9 +7,9 @@
 #include <string>
 
 #include "cloud_format.hpp"
-#include "mfpc/core/atomic_file.hpp"
+#include "mfpc/core/detail/atomic_file.hpp"
 #include "mfpc/core/error.hpp"
-#include "mfpc/core/text_file.hpp"
+#include "mfpc/core/detail/text_file.hpp"
 
 namespace mfpc {
 

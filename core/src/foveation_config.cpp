@@ -12,8 +12,8 @@
 
 #include "cloud_format.hpp"  // quoted, narrow_to_float
 #include "mfpc/core/error.hpp"
-#include "mfpc/core/json_check.hpp"
-#include "mfpc/core/text_file.hpp"
+#include "mfpc/core/detail/json_check.hpp"
+#include "mfpc/core/detail/text_file.hpp"
 
 namespace mfpc {
 

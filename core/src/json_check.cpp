@@ -1,4 +1,4 @@
-#include "mfpc/core/json_check.hpp"
+#include "mfpc/core/detail/json_check.hpp"
 
 #include <algorithm>
 #include <cctype>

@@ -1,4 +1,4 @@
-#include "mfpc/core/text_file.hpp"
+#include "mfpc/core/detail/text_file.hpp"
 
 #include <cerrno>
 #include <cstring>

@@ -15,7 +15,7 @@
 #include <tbb/parallel_sort.h>
 
 #include "mfpc/core/error.hpp"
-#include "mfpc/core/floor.hpp"
+#include "mfpc/core/detail/floor.hpp"
 #include "nearest_candidates.hpp"
 #include "radix_sort.hpp"
 

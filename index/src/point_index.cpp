@@ -13,7 +13,7 @@
 #include <tbb/parallel_reduce.h>
 
 #include "mfpc/core/error.hpp"
-#include "mfpc/core/floor.hpp"
+#include "mfpc/core/detail/floor.hpp"
 #include "radix_sort.hpp"
 
 namespace mfpc {

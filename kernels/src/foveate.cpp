@@ -15,7 +15,7 @@
 #include <tbb/parallel_reduce.h>
 
 #include "mfpc/core/error.hpp"
-#include "mfpc/core/floor.hpp"
+#include "mfpc/core/detail/floor.hpp"
 #include "voxel_slots.hpp"
 
 namespace mfpc {

@@ -7,7 +7,7 @@
 
 #include <Eigen/Core>
 
-#include "mfpc/core/slot_table.hpp"
+#include "mfpc/core/detail/slot_table.hpp"
 
 namespace mfpc::detail {
 

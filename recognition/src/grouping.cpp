@@ -9,7 +9,7 @@
 #include <tbb/parallel_for.h>
 
 #include "mfpc/core/error.hpp"
-#include "mfpc/core/slot_table.hpp"
+#include "mfpc/core/detail/slot_table.hpp"
 
 namespace mfpc {
 namespace {

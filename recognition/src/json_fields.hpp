@@ -12,7 +12,7 @@
 #include <nlohmann/json.hpp>
 
 #include "mfpc/core/error.hpp"
-#include "mfpc/core/json_check.hpp"
+#include "mfpc/core/detail/json_check.hpp"
 
 namespace mfpc::detail {
 

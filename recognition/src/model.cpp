@@ -7,10 +7,10 @@
 #include <fstream>
 #include <string>
 
-#include "mfpc/core/atomic_file.hpp"
+#include "mfpc/core/detail/atomic_file.hpp"
 #include "mfpc/core/cloud_io.hpp"
 #include "mfpc/core/error.hpp"
-#include "mfpc/core/text_file.hpp"
+#include "mfpc/core/detail/text_file.hpp"
 #include "mfpc/index/neighbor_grid.hpp"
 #include "mfpc/kernels/normals.hpp"
 #include "mfpc/kernels/shot.hpp"

@@ -6,9 +6,9 @@
 
 #include "mfpc/core/detail/text_format.hpp"
 #include "mfpc/core/error.hpp"
-#include "mfpc/core/json_check.hpp"
+#include "mfpc/core/detail/json_check.hpp"
 #include "mfpc/core/pose.hpp"
-#include "mfpc/core/text_file.hpp"
+#include "mfpc/core/detail/text_file.hpp"
 #include "json_fields.hpp"
 
 namespace mfpc {

@@ -25,7 +25,7 @@
 // The LZF codec is private to the core module; it is tested directly (against PCL's liblzf copy)
 // because a corrupt-block bug would otherwise only show as a wrong cloud.
 #include "../../core/src/lzf.hpp"
-#include "mfpc/core/atomic_file.hpp"
+#include "mfpc/core/detail/atomic_file.hpp"
 #include "mfpc/core/cloud_io.hpp"
 #include "mfpc/core/error.hpp"
 #include "mfpc/core/point_cloud.hpp"

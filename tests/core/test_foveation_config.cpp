@@ -14,7 +14,7 @@
 #include "mfpc/core/cloud_io.hpp"
 #include "mfpc/core/error.hpp"
 #include "mfpc/core/foveation_config.hpp"
-#include "mfpc/core/json_check.hpp"
+#include "mfpc/core/detail/json_check.hpp"
 #include "mfpc/core/pose.hpp"
 #include "test_support.hpp"
 

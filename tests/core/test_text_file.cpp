@@ -7,7 +7,7 @@
 #include <sys/stat.h>
 
 #include "mfpc/core/error.hpp"
-#include "mfpc/core/text_file.hpp"
+#include "mfpc/core/detail/text_file.hpp"
 #include "test_support.hpp"
 
 namespace mfpc {

@@ -13,7 +13,7 @@
 #include "mfpc/core/camera.hpp"
 #include "mfpc/core/cloud_io.hpp"
 #include "mfpc/core/error.hpp"
-#include "mfpc/core/text_file.hpp"
+#include "mfpc/core/detail/text_file.hpp"
 #include "mfpc/index/neighbor_grid.hpp"
 #include "mfpc/index/organized_neighbors.hpp"
 #include "mfpc/kernels/shot.hpp"

@@ -20,7 +20,7 @@
 #include "mfpc/core/cloud_io.hpp"
 #include "mfpc/core/error.hpp"
 #include "mfpc/core/foveation_config.hpp"
-#include "mfpc/core/text_file.hpp"
+#include "mfpc/core/detail/text_file.hpp"
 #include "mfpc/recognition/experiment.hpp"
 #include "mfpc/recognition/ground_truth.hpp"
 #include "mfpc/recognition/model.hpp"

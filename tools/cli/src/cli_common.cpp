@@ -9,7 +9,7 @@
 #include <CLI/CLI.hpp>
 #include <tbb/global_control.h>
 
-#include "mfpc/core/atomic_file.hpp"
+#include "mfpc/core/detail/atomic_file.hpp"
 
 namespace mfpc::cli {
 

@@ -5,7 +5,7 @@
 #include <string>
 
 #include "cli_commands.hpp"
-#include "mfpc/core/atomic_file.hpp"
+#include "mfpc/core/detail/atomic_file.hpp"
 #include "mfpc/recognition/dataset.hpp"
 #include "mfpc/recognition/params.hpp"
 

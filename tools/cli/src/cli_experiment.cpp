@@ -3,7 +3,7 @@
 #include <string>
 
 #include "cli_commands.hpp"
-#include "mfpc/core/atomic_file.hpp"
+#include "mfpc/core/detail/atomic_file.hpp"
 #include "mfpc/core/cloud_io.hpp"
 #include "mfpc/recognition/experiment.hpp"
 #include "mfpc/recognition/experiment_report.hpp"

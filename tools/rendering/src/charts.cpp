@@ -8,7 +8,7 @@
 #include <cstdlib>
 #include <fstream>
 
-#include "mfpc/core/atomic_file.hpp"
+#include "mfpc/core/detail/atomic_file.hpp"
 #include "mfpc/core/error.hpp"
 
 extern "C" char** environ;

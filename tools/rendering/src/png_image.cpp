@@ -8,7 +8,7 @@
 
 #include <png.h>
 
-#include "mfpc/core/atomic_file.hpp"
+#include "mfpc/core/detail/atomic_file.hpp"
 #include "mfpc/core/error.hpp"
 
 namespace mfpc {

@@ -19,7 +19,7 @@
 #include <vector>
 
 #include "mfpc/core/error.hpp"
-#include "mfpc/core/text_file.hpp"
+#include "mfpc/core/detail/text_file.hpp"
 #include "mfpc/simulation/mesh.hpp"
 
 namespace mfpc {

@@ -8,7 +8,7 @@
 
 #include <nlohmann/json.hpp>
 
-#include "mfpc/core/atomic_file.hpp"
+#include "mfpc/core/detail/atomic_file.hpp"
 #include "mfpc/core/cloud_io.hpp"
 #include "mfpc/core/error.hpp"
 #include "mfpc/index/neighbor_grid.hpp"

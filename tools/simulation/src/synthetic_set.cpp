@@ -7,7 +7,7 @@
 
 #include <nlohmann/json.hpp>
 
-#include "mfpc/core/atomic_file.hpp"
+#include "mfpc/core/detail/atomic_file.hpp"
 #include "mfpc/core/error.hpp"
 #include "mfpc/recognition/model.hpp"
 #include "mfpc/simulation/mesh.hpp"

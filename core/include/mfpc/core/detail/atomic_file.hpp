@@ -1,5 +1,7 @@
 #pragma once
 
+// Internal to MFPC (shared by its modules, not installed).
+
 #include <filesystem>
 #include <fstream>
 #include <functional>

@@ -1,5 +1,7 @@
 #pragma once
 
+// Internal to MFPC (shared by its modules, not installed).
+
 namespace mfpc {
 
 // floor(v) as an integer of type Int, written out because on baseline x86-64 std::floor is a

@@ -1,5 +1,7 @@
 #pragma once
 
+// Internal to MFPC (shared by its modules, not installed).
+
 #include <algorithm>
 #include <bit>
 #include <cstddef>
