@@ -270,6 +270,22 @@ TEST(RecognitionParams, DefaultsRoundTripAndBadValuesAreNamed)
     EXPECT_NE(params_error(R"({"verify": {"min_coverage": 2}})").find("verify.min_coverage"), std::string::npos);
     EXPECT_NE(params_error(R"({"verify": {"max_continuation": -0.1}})").find("verify.max_continuation"), std::string::npos);
     EXPECT_EQ(parse_recognition_params(R"({"verify": {"max_continuation": 1}})", "p.json").verify.max_continuation, 1.0f);
+    // Verification's tuning values are parameters like the rest: read, range-checked, echoed.
+    const RecognitionParams tuned = parse_recognition_params(
+        R"({"verify": {"min_facing_cos": 0.5, "prefilter_coverage": 0.5, "flat_side": 0.003, "rim_distance": 0.02,
+                       "min_rim_probes": 5, "settled_fitness": 0.9}})",
+        "p.json");
+    EXPECT_EQ(tuned.verify.min_facing_cos, 0.5f);
+    EXPECT_EQ(tuned.verify.prefilter_coverage, 0.5f);
+    EXPECT_EQ(tuned.verify.flat_side, 0.003f);
+    EXPECT_EQ(tuned.verify.rim_distance, 0.02f);
+    EXPECT_EQ(tuned.verify.min_rim_probes, 5);
+    EXPECT_EQ(tuned.verify.settled_fitness, 0.9f);
+    EXPECT_EQ(to_json(parse_recognition_params(to_json(tuned), "echo")), to_json(tuned));
+    for (const char* bad : {R"({"verify": {"min_facing_cos": 1.5}})", R"({"verify": {"prefilter_coverage": -1}})",
+                            R"({"verify": {"flat_side": 0}})", R"({"verify": {"rim_distance": -0.01}})",
+                            R"({"verify": {"min_rim_probes": -1}})", R"({"verify": {"settled_fitness": 2}})"})
+        EXPECT_NE(params_error(bad).find("p.json: verify."), std::string::npos) << bad;
     EXPECT_NE(params_error("[1, 2]").find("must be a JSON object"), std::string::npos);
     EXPECT_NE(params_error("{").find("invalid JSON"), std::string::npos);
 }

@@ -1,9 +1,13 @@
 // `mfpc experiment` as a user meets it: every report file from one command, numbers that agree
 // between the files, and one-line errors.
+#include <algorithm>
+
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
 
 #include "cli_runner.hpp"
+#include "mfpc/core/detail/text_format.hpp"
+#include "mfpc/rendering/png_image.hpp"
 #include "test_support.hpp"
 
 namespace mfpc {
@@ -14,6 +18,7 @@ using test::quoted;
 using test::Result;
 using test::run;
 using test::slurp;
+using detail::format_fixed;
 
 TEST(CliExperiment, WritesEveryReportFile)
 {
@@ -53,7 +58,31 @@ TEST(CliExperiment, WritesEveryReportFile)
     const auto& mfpc = report["strategies"][2]["counts"];
     EXPECT_EQ(mfpc["points_before_downsampling"].get<long>(),
               raw["points_before_downsampling"].get<long>() - raw["redundant_points"].get<long>());
-    EXPECT_NE(slurp(out / "report.md").find("| MFPC |"), std::string::npos);
+    // The three reports say the same numbers.
+    const std::string csv = slurp(out / "report.csv");
+    const std::string md = slurp(out / "report.md");
+    for (const auto& strategy : report["strategies"]) {
+        const double mean = strategy["time_ms"]["total"]["mean"].get<double>();
+        const std::string name = strategy["name"].get<std::string>();
+        const std::size_t row = csv.find("\n" + name + ",");
+        ASSERT_NE(row, std::string::npos) << name;
+        const std::string line = csv.substr(row + 1, csv.find('\n', row + 1) - row - 1);
+        EXPECT_NE(line.find("," + std::to_string(strategy["evaluation"]["instances_true"].get<int>()) + ","),
+                  std::string::npos) << line;
+        EXPECT_NE(line.find("," + format_fixed(mean, 3) + ","), std::string::npos) << line << " mean " << mean;
+        EXPECT_NE(md.find("| " + name + " | " + format_fixed(mean, 1) + " |"), std::string::npos) << name;
+    }
+    // Each strategy's picture is the sensor's view (the scene's size) of what it kept: the whole
+    // scene in its colours, the foveated ones coloured by region and unlike it.
+    const RgbImage whole = read_png_rgb(out / "strategy_1.png");
+    const RgbImage raw_picture = read_png_rgb(out / "strategy_2.png");
+    const RgbImage foveated = read_png_rgb(out / "strategy_3.png");
+    for (const RgbImage* image : {&whole, &raw_picture, &foveated}) {
+        EXPECT_EQ(image->width, 640u);
+        EXPECT_EQ(image->height, 480u);
+    }
+    EXPECT_NE(foveated.pixels, whole.pixels);
+    EXPECT_NE(raw_picture.pixels, whole.pixels);
     EXPECT_GT(std::count(r.out.begin(), r.out.end(), '\n'), 10);  // the tables on stdout
 }
 
