@@ -5,6 +5,10 @@
 // Bytes after binary or binary_compressed data are ignored, as PCL ignores them: older PCL versions
 // padded the files they wrote (the shared scene has 3901 zero bytes after its compressed block).
 // Ascii rows beyond POINTS are an error: there the header and the data plainly disagree.
+//
+// Over 600 lines on purpose: one format. The three encodings are read through one header parser
+// and one field layout, and the writer mirrors the reader's layout rules (organized rows, packed
+// colour); kept together so that what is read and what is written cannot drift apart.
 
 #include <algorithm>
 #include <array>

@@ -1,3 +1,8 @@
+// Over 600 lines on purpose: one structure. Its queries (radius, shell-ordered k nearest, nearest
+// within a radius, batched k nearest, neighbourhood lists) share the row lookup and the shell
+// walk, templates defined in this file so that every query inlines them; split across files they
+// would move to a header every query includes, for no gain in what each file says.
+
 #include "mfpc/index/neighbor_grid.hpp"
 
 #include <algorithm>

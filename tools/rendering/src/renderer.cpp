@@ -1,3 +1,8 @@
+// Over 600 lines on purpose: one pipeline from a cloud to a picture (the view's camera, disc sizes
+// and normals from the cloud's grid or its neighbours, region colours, the Embree scene of discs,
+// shading, wireframe boxes and overlays), each step used by this file alone; split by step, the
+// parts would only pass the same few structs between them.
+
 #include "mfpc/rendering/renderer.hpp"
 
 #include <algorithm>
