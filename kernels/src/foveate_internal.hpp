@@ -11,6 +11,7 @@
 #include <span>
 #include <vector>
 
+#include "mfpc/kernels/detail/lanes.hpp"
 #include "mfpc/kernels/foveate.hpp"
 
 namespace mfpc::detail {
@@ -26,13 +27,10 @@ struct LevelRange {
     bool whole() const { return lowest == highest; }
 };
 
-// x, y, z and an unused fourth lane (GCC/Clang vector extensions: SSE on x86-64, NEON on arm64).
-// A comparison gives -1 in every lane where it holds, so subtracting its result counts.
-using AxisLanes = float __attribute__((vector_size(16)));
-using AxisCounts = std::int32_t __attribute__((vector_size(16)));
-
-inline AxisLanes axis_lanes(const Point& p) { return AxisLanes{p.x(), p.y(), p.z(), 0.0f}; }
-inline int smallest_axis(AxisCounts counts) { return std::min(std::min(counts[0], counts[1]), counts[2]); }
+// x, y, z and an unused fourth lane (mfpc/kernels/detail/lanes.hpp). A comparison gives -1 in
+// every lane where it holds, so subtracting its result counts.
+inline Float4 axis_lanes(const Point& p) { return Float4{p.x(), p.y(), p.z(), 0.0f}; }
+inline int smallest_axis(Int4 counts) { return std::min(std::min(counts[0], counts[1]), counts[2]); }
 
 // The level boxes of every structure as faces, the three axes side by side. The boxes are nested,
 // so on each axis the lower faces ascend with k and the upper ones descend: box k holds coordinate
@@ -49,8 +47,8 @@ public:
             for (int k = 0; k < boxes_; ++k) {
                 const Box box = structure.level_box(k);
                 // The fourth lane always holds, so it never limits the count.
-                lower_.push_back(AxisLanes{box.min.x(), box.min.y(), box.min.z(), -inf});
-                upper_.push_back(AxisLanes{box.max.x(), box.max.y(), box.max.z(), inf});
+                lower_.push_back(Float4{box.min.x(), box.min.y(), box.min.z(), -inf});
+                upper_.push_back(Float4{box.max.x(), box.max.y(), box.max.z(), inf});
             }
         }
     }
@@ -63,16 +61,16 @@ public:
     // stops at known.highest + 1, which no count of these bounds exceeds.
     LevelRange range(int structure, const Box& bounds, LevelRange known) const
     {
-        const AxisLanes* lower = lower_faces(structure);
-        const AxisLanes* upper = upper_faces(structure);
-        const AxisLanes low = axis_lanes(bounds.min);
-        const AxisLanes high = axis_lanes(bounds.max);
+        const Float4* lower = lower_faces(structure);
+        const Float4* upper = upper_faces(structure);
+        const Float4 low = axis_lanes(bounds.min);
+        const Float4 high = axis_lanes(bounds.max);
         // Bounds beside the outer box, the common case with many structures: no level to count.
-        const AxisCounts beside = (high < lower[0]) | (low > upper[0]);
+        const Int4 beside = (high < lower[0]) | (low > upper[0]);
         if (beside[0] | beside[1] | beside[2]) return {-1, -1};
         const int first = known.lowest + 1;
-        AxisCounts lower_in = AxisCounts{} + first;
-        AxisCounts upper_in = lower_in, lower_reach = lower_in, upper_reach = lower_in;
+        Int4 lower_in = Int4{} + first;
+        Int4 upper_in = lower_in, lower_reach = lower_in, upper_reach = lower_in;
         // Both counts in one pass over the faces (two passes cost labelling 4% more instructions).
         for (int k = first; k <= known.highest; ++k) {
             lower_in -= lower[k] <= low;
@@ -89,12 +87,12 @@ public:
     // The level of p (-1: outside the structure), given `known`, the range of bounds holding p.
     int level(int structure, const Point& p, LevelRange known) const
     {
-        const AxisLanes* lower = lower_faces(structure);
-        const AxisLanes* upper = upper_faces(structure);
-        const AxisLanes x = axis_lanes(p);
+        const Float4* lower = lower_faces(structure);
+        const Float4* upper = upper_faces(structure);
+        const Float4 x = axis_lanes(p);
         const int first = known.lowest + 1;
-        AxisCounts lower_in = AxisCounts{} + first;
-        AxisCounts upper_in = lower_in;
+        Int4 lower_in = Int4{} + first;
+        Int4 upper_in = lower_in;
         for (int k = first; k <= known.highest; ++k) {
             lower_in -= lower[k] <= x;
             upper_in -= upper[k] >= x;
@@ -111,8 +109,8 @@ public:
     // Whether some structure's outer box (closed) holds p.
     bool covers(const Point& p) const
     {
-        const AxisLanes x = axis_lanes(p);
-        AxisCounts inside{};
+        const Float4 x = axis_lanes(p);
+        Int4 inside{};
         for (std::size_t box = 0; box < lower_.size(); box += std::size_t(boxes_)) inside |= in_box(x, box);
         return inside[0] != 0;
     }
@@ -120,18 +118,18 @@ public:
 private:
     // Lane 0 is non-zero when box `box` (closed) holds x on all three axes. The axes' verdicts are
     // gathered in lanes: read lane by lane, the compares compiled to branches and took twice the time.
-    AxisCounts in_box(AxisLanes x, std::size_t box) const
+    Int4 in_box(Float4 x, std::size_t box) const
     {
-        const AxisCounts in = (x >= lower_[box]) & (x <= upper_[box]);
+        const Int4 in = (x >= lower_[box]) & (x <= upper_[box]);
         return in & __builtin_shufflevector(in, in, 1, 2, 0, 3) & __builtin_shufflevector(in, in, 2, 0, 1, 3);
     }
 
-    const AxisLanes* lower_faces(int structure) const { return &lower_[std::size_t(structure) * std::size_t(boxes_)]; }
-    const AxisLanes* upper_faces(int structure) const { return &upper_[std::size_t(structure) * std::size_t(boxes_)]; }
+    const Float4* lower_faces(int structure) const { return &lower_[std::size_t(structure) * std::size_t(boxes_)]; }
+    const Float4* upper_faces(int structure) const { return &upper_[std::size_t(structure) * std::size_t(boxes_)]; }
 
     int boxes_;
-    std::vector<AxisLanes> lower_;  // [structure * boxes + k]
-    std::vector<AxisLanes> upper_;
+    std::vector<Float4> lower_;  // [structure * boxes + k]
+    std::vector<Float4> upper_;
 };
 
 // Throws unless the structures are usable together: at least one, one level count m in [1,
