@@ -12,8 +12,8 @@
 #include <tbb/parallel_for.h>
 
 #include "atan_fit.hpp"
-#include "lanes.hpp"
 #include "mfpc/core/error.hpp"
+#include "mfpc/kernels/detail/lanes.hpp"
 #include "mfpc/kernels/local_reference_frame.hpp"
 
 // BOARD as PCL 1.13's BOARDLocalReferenceFrameEstimation computes it (features/impl/board.hpp),

@@ -15,8 +15,8 @@
 #include <tbb/parallel_reduce.h>
 
 #include "atan_fit.hpp"
-#include "lanes.hpp"
 #include "mfpc/core/error.hpp"
+#include "mfpc/kernels/detail/lanes.hpp"
 
 #if defined(__SSE2__)
 #include <emmintrin.h>
@@ -52,8 +52,8 @@ constexpr std::size_t min_neighbours = 5;
 constexpr double pi = 3.14159265358979323846;
 constexpr float tiny_coordinate = 1e-30f;  // PCL zeroes frame coordinates below this
 
-// Four lanes (lanes.hpp), with SSE2 intrinsics where the vector extensions lack an operation or
-// compile it poorly.
+// Four lanes (mfpc/kernels/detail/lanes.hpp), with SSE2 intrinsics where the vector extensions
+// lack an operation or compile it poorly.
 using detail::abs4;
 using detail::Float4;
 using detail::horner;

@@ -3,7 +3,6 @@
 #include <algorithm>
 #include <bit>
 #include <cmath>
-#include <cstring>
 #include <type_traits>
 #include <memory>
 #include <numeric>
@@ -15,16 +14,19 @@
 #include <tbb/parallel_for.h>
 
 #include "mfpc/core/error.hpp"
+#include "mfpc/kernels/detail/lanes.hpp"
 #include "mfpc/kernels/shot.hpp"
 
 namespace mfpc {
 namespace {
 
-// One 8-lane vector: with AVX2 a single register, otherwise two SSE halves.
-using Lanes = float __attribute__((vector_size(32)));
-using LaneBits = std::int32_t __attribute__((vector_size(32)));
+// 8 lanes (mfpc/kernels/detail/lanes.hpp): with AVX2 a single register, otherwise two SSE halves.
+// Passed by reference and loaded in place, never by value: that would change the ABI where the
+// function is not compiled for AVX.
+using detail::Float8;
+using detail::Int8;
 
-float lane_total(const Lanes& sum)
+float lane_total(const Float8& sum)
 {
     return ((sum[0] + sum[4]) + (sum[1] + sum[5])) + ((sum[2] + sum[6]) + (sum[3] + sum[7]));
 }
@@ -40,14 +42,14 @@ __attribute__((target_clones("avx2", "default")))
 #endif
 float descriptor_distance(const float* x, const float* y, std::size_t size, float worst)
 {
-    Lanes sum = {0, 0, 0, 0, 0, 0, 0, 0};
+    Float8 sum = {0, 0, 0, 0, 0, 0, 0, 0};
     std::size_t i = 0;
     for (; i + 32 <= size; i += 32) {
         for (std::size_t j = i; j < i + 32; j += 8) {
-            Lanes a, b;
-            std::memcpy(&a, x + j, 32);
-            std::memcpy(&b, y + j, 32);
-            const Lanes d = a - b;
+            Float8 a, b;
+            detail::load(a, x + j);
+            detail::load(b, y + j);
+            const Float8 d = a - b;
             sum += d * d;
         }
         if (worst > 0) {
@@ -133,19 +135,19 @@ std::vector<float> group_norms(const Features& f, bool tiled)
                                                float threshold, float* slack, std::uint16_t* masks)
 {
     constexpr std::size_t rows = 4;
-    constexpr LaneBits low_weights = {1, 2, 4, 8, 16, 32, 64, 128};
-    constexpr LaneBits high_weights = low_weights << 8;
+    constexpr Int8 low_weights = {1, 2, 4, 8, 16, 32, 64, 128};
+    constexpr Int8 high_weights = low_weights << 8;
     constexpr float keep = 1.0f - 1e-3f;
     for (std::size_t r0 = 0; r0 < query_count; r0 += rows) {
         std::size_t row[rows];
         for (std::size_t r = 0; r < rows; ++r) row[r] = std::min(r0 + r, query_count - 1);
         for (std::size_t c = 0; c < width; c += 16) {
-            Lanes sum[rows][2] = {};
+            Float8 sum[rows][2] = {};
             const float* tile = columns + c / 16 * tile_size;
             for (std::size_t g = 0; g < group_count; ++g) {
-                Lanes low, high;
-                std::memcpy(&low, tile + g * 16, sizeof(Lanes));
-                std::memcpy(&high, tile + g * 16 + 8, sizeof(Lanes));
+                Float8 low, high;
+                detail::load(low, tile + g * 16);
+                detail::load(high, tile + g * 16 + 8);
 #pragma GCC unroll 4
                 for (std::size_t r = 0; r < rows; ++r) {
                     const float norm = queries[row[r] * group_count + g];
@@ -153,18 +155,18 @@ std::vector<float> group_norms(const Features& f, bool tiled)
                     sum[r][1] += norm * high;
                 }
             }
-            Lanes norms_low, norms_high;
-            std::memcpy(&norms_low, column_norms + c, sizeof(Lanes));
-            std::memcpy(&norms_high, column_norms + c + 8, sizeof(Lanes));
+            Float8 norms_low, norms_high;
+            detail::load(norms_low, column_norms + c);
+            detail::load(norms_high, column_norms + c + 8);
             for (std::size_t r = 0; r < rows && r0 + r < query_count; ++r) {
                 const float query_norm = query_norms[row[r]];
-                const Lanes low_slack = keep * (query_norm + norms_low) - 2.0f * sum[r][0] - threshold;
-                const Lanes high_slack = keep * (query_norm + norms_high) - 2.0f * sum[r][1] - threshold;
-                std::memcpy(slack + (r0 + r) * width + c, &low_slack, sizeof(Lanes));
-                std::memcpy(slack + (r0 + r) * width + c + 8, &high_slack, sizeof(Lanes));
+                const Float8 low_slack = keep * (query_norm + norms_low) - 2.0f * sum[r][0] - threshold;
+                const Float8 high_slack = keep * (query_norm + norms_high) - 2.0f * sum[r][1] - threshold;
+                detail::store(slack + (r0 + r) * width + c, low_slack);
+                detail::store(slack + (r0 + r) * width + c + 8, high_slack);
                 // Bit l of the mask: column c + l has negative slack (a comparison gives -1 where
                 // it holds; NaN compares false).
-                const LaneBits bits = ((low_slack < 0.0f) & low_weights) | ((high_slack < 0.0f) & high_weights);
+                const Int8 bits = ((low_slack < 0.0f) & low_weights) | ((high_slack < 0.0f) & high_weights);
                 masks[(r0 + r) * (width / 16) + c / 16] =
                     std::uint16_t((bits[0] | bits[1]) | (bits[2] | bits[3]) | ((bits[4] | bits[5]) | (bits[6] | bits[7])));
             }
