@@ -1,7 +1,8 @@
-#include "mfpc/recognition/recognize.hpp"
+#include "mfpc/recognition/described_scene.hpp"
 
 #include <chrono>
 #include <exception>
+#include <memory>
 #include <optional>
 #include <vector>
 
@@ -26,18 +27,19 @@ double elapsed_ms(Clock::time_point since)
 
 }  // namespace
 
-RecognitionResult recognize(const Model& model, const PointCloud& scene, const RecognitionParams& params,
-                            const SceneFoveation& foveation)
+std::unique_ptr<DescribedScene> describe_scene(const PointCloud& scene, const RecognitionParams& params,
+                                               const SceneFoveation& foveation)
 {
     check_recognition_params(params);
     if (scene.empty()) throw Error("recognize", "the scene has no finite points");
     const auto start = Clock::now();
-    RecognitionResult result;
-    result.counts.scene_points = scene.size();
-    result.counts.model_keypoints = model.features.size();
-    result.counts.model_keypoints_invalid = model.features.invalid;
+    auto described = std::make_unique<DescribedScene>();
+    DescribedScene& d = *described;
+    d.scene = &scene;
+    d.params = params;
+    d.counts.scene_points = scene.size();
 
-    FoveatedCloud foveated;
+    FoveatedCloud& foveated = d.foveated;
     const bool foveating = foveation.config != nullptr && foveation.mode != FoveationMode::none;
     const PointCloud* used = foveating ? &foveated.cloud : &scene;
     std::vector<std::uint32_t> keypoints;
@@ -52,8 +54,8 @@ RecognitionResult recognize(const Model& model, const PointCloud& scene, const R
     // One neighbour index over the whole scene serves the normals (when taken from the full scene)
     // and verification: a sensor scene's depth image (the grid's answers, faster; it builds a grid
     // itself only for the few queries the image cannot settle), else a grid.
-    std::optional<OrganizedNeighbors> organized;
-    std::optional<NeighborGrid> scene_grid;
+    std::optional<OrganizedNeighbors>& organized = d.organized;
+    std::optional<NeighborGrid>& scene_grid = d.grid;
     // Foveation and keypoints on one side, the whole scene's index and camera on the other: they
     // share nothing, and each scales poorly on its own (the camera fit is serial), so with more
     // than one thread they run side by side. Each stage's time is its own, so foveate and normals
@@ -62,17 +64,16 @@ RecognitionResult recognize(const Model& model, const PointCloud& scene, const R
         if (foveating) {
             const auto t = Clock::now();
             foveated = foveate(scene, *foveation.config, foveation.mode, foveation.single_structure);
-            result.timings.foveate = elapsed_ms(t);
+            d.timings.foveate = elapsed_ms(t);
         }
         if (resampled) {
-            result.scene_features =
-                describe_at_resolution(scene.points, params.scene, &resampled_timings, {}, &resampled_points);
+            d.features = describe_at_resolution(scene.points, params.scene, &resampled_timings, {}, &resampled_points);
             return;
         }
         const auto t = Clock::now();
         keypoints = foveating ? uniform_sampling(used->points, foveated.labels, foveation.config->structures)
                               : uniform_sampling(scene.points, params.scene.keypoint_radius);
-        result.timings.keypoints = elapsed_ms(t);
+        d.timings.keypoints = elapsed_ms(t);
     };
     auto index_scene = [&] {
         const auto t = Clock::now();
@@ -100,16 +101,16 @@ RecognitionResult recognize(const Model& model, const PointCloud& scene, const R
     tbb::parallel_invoke(keeping_error(foveate_and_sample, sample_error), keeping_error(index_scene, index_error));
     if (sample_error) std::rethrow_exception(sample_error);
     if (index_error) std::rethrow_exception(index_error);
-    result.counts.scene_points_used = resampled ? resampled_points : used->size();
-    result.counts.scene_points_foveated = foveating ? foveated.points_before_downsampling : scene.size();
-    result.counts.redundant_points = foveated.redundant_points;
+    d.counts.scene_points_used = resampled ? resampled_points : used->size();
+    d.counts.scene_points_foveated = foveating ? foveated.points_before_downsampling : scene.size();
+    d.counts.redundant_points = foveated.redundant_points;
 
     auto t = Clock::now();
     std::optional<NeighborGrid> foveated_grid;
     if (!full_normals && !resampled) foveated_grid.emplace(used->points, normal_grid_cell);
     feature_timings.normals_ms += elapsed_ms(t);
     if (!resampled) {
-        result.scene_features =
+        d.features =
             !full_normals ? describe_keypoints(used->points, keypoints, *foveated_grid, params.scene, &feature_timings)
             : organized   ? describe_keypoints(used->points, keypoints, *organized, params.scene, &feature_timings)
                           : describe_keypoints(used->points, keypoints, *scene_grid, params.scene, &feature_timings);
@@ -117,13 +118,35 @@ RecognitionResult recognize(const Model& model, const PointCloud& scene, const R
     feature_timings.normals_ms += resampled_timings.normals_ms;
     feature_timings.lrf_ms += resampled_timings.lrf_ms;
     feature_timings.descriptors_ms += resampled_timings.descriptors_ms;
-    result.timings.normals = feature_timings.normals_ms;
-    result.timings.lrf = feature_timings.lrf_ms;
-    result.timings.descriptors = feature_timings.descriptors_ms;
-    result.counts.scene_keypoints = result.scene_features.size();
-    result.counts.scene_keypoints_invalid = result.scene_features.invalid;
+    d.timings.normals = feature_timings.normals_ms;
+    d.timings.lrf = feature_timings.lrf_ms;
+    d.timings.descriptors = feature_timings.descriptors_ms;
+    d.counts.scene_keypoints = d.features.size();
+    d.counts.scene_keypoints_invalid = d.features.invalid;
 
-    t = Clock::now();
+    if (verify) {
+        // Verification looks at the whole scene, whatever foveation kept: it asks whether the
+        // sensor saw the model there.
+        t = Clock::now();
+        d.evidence.emplace(organized ? make_scene_evidence(scene, *organized)
+                                     : make_scene_evidence(scene, *scene_grid, std::nullopt));
+        d.evidence_ms = elapsed_ms(t);
+    }
+    d.timings.total = elapsed_ms(start);
+    return described;
+}
+
+RecognitionResult recognize_described(const DescribedScene& described, const Model& model)
+{
+    const auto start = Clock::now();
+    const RecognitionParams& params = described.params;
+    RecognitionResult result;
+    result.scene_features = described.features;
+    result.counts = described.counts;
+    result.counts.model_keypoints = model.features.size();
+    result.counts.model_keypoints_invalid = model.features.invalid;
+
+    auto t = Clock::now();
     result.correspondences = match_descriptors(model.features, result.scene_features, params.match);
     result.counts.correspondences = result.correspondences.size();
     result.timings.match = elapsed_ms(t);
@@ -135,19 +158,52 @@ RecognitionResult recognize(const Model& model, const PointCloud& scene, const R
     result.counts.instances_before_verification = result.instances.size();
     result.timings.group = elapsed_ms(t);
 
-    if (verify) {
+    if (described.evidence) {
         t = Clock::now();
-        // Verification looks at the whole scene, whatever foveation kept: it asks whether the
-        // sensor saw the model there.
-        const SceneEvidence evidence =
-            organized ? make_scene_evidence(scene, *organized) : make_scene_evidence(scene, *scene_grid, std::nullopt);
-        result.instances = refine_and_verify(std::move(result.instances), model.points, model.normals, evidence,
-                                             params.refine, params.verify);
+        result.instances = refine_and_verify(std::move(result.instances), model.points, model.normals,
+                                             *described.evidence, params.refine, params.verify);
         result.timings.verify = elapsed_ms(t);
     }
     result.timings.total = elapsed_ms(start);
-    if (foveating && foveation.keep_cloud) result.foveated = std::move(foveated);
     return result;
+}
+
+RecognitionResult recognize(const Model& model, const PointCloud& scene, const RecognitionParams& params,
+                            const SceneFoveation& foveation)
+{
+    const auto start = Clock::now();
+    const std::unique_ptr<DescribedScene> described = describe_scene(scene, params, foveation);
+    RecognitionResult result = recognize_described(*described, model);
+    // One model: the scene's stages and the model's as one run, the evidence counted as verification.
+    const RecognitionTimings& scene_timings = described->timings;
+    result.timings.foveate = scene_timings.foveate;
+    result.timings.normals = scene_timings.normals;
+    result.timings.keypoints = scene_timings.keypoints;
+    result.timings.lrf = scene_timings.lrf;
+    result.timings.descriptors = scene_timings.descriptors;
+    if (described->evidence) result.timings.verify += described->evidence_ms;
+    result.timings.total = elapsed_ms(start);
+    if (foveation.keep_cloud) result.foveated = std::move(described->foveated);
+    return result;
+}
+
+std::vector<RecognitionResult> recognize_models(std::span<const Model* const> models, const PointCloud& scene,
+                                                const RecognitionParams& params, const SceneFoveation& foveation,
+                                                RecognitionTimings* scene_timings)
+{
+    for (const Model* model : models)
+        if (model == nullptr) throw Error("recognize", "a model to recognise is missing (null)");
+    const std::unique_ptr<DescribedScene> described = describe_scene(scene, params, foveation);
+    if (scene_timings) {
+        *scene_timings = described->timings;
+        scene_timings->verify = described->evidence_ms;
+    }
+    // Models in turn, each stage parallel inside: one scene's description is shared, not copied
+    // across threads, and results come out in the models' order whatever the threads.
+    std::vector<RecognitionResult> results;
+    results.reserve(models.size());
+    for (const Model* model : models) results.push_back(recognize_described(*described, *model));
+    return results;
 }
 
 }  // namespace mfpc

@@ -1,0 +1,66 @@
+#pragma once
+
+#include <memory>
+#include <optional>
+#include <span>
+#include <vector>
+
+#include "mfpc/index/neighbor_grid.hpp"
+#include "mfpc/index/organized_neighbors.hpp"
+#include "mfpc/recognition/recognize.hpp"
+#include "mfpc/recognition/verification.hpp"
+
+namespace mfpc {
+
+/// A scene described once for any number of models: foveated (optionally), its keypoints, frames
+/// and descriptors, and the evidence verification reads. It refers to the scene cloud, which must
+/// outlive it, and to its own indexes, so it is neither copied nor moved.
+struct DescribedScene {
+    DescribedScene() = default;
+    DescribedScene(const DescribedScene&) = delete;
+    DescribedScene& operator=(const DescribedScene&) = delete;
+
+    const PointCloud* scene = nullptr;       ///< the scene described
+    RecognitionParams params;                ///< the parameters of the description and of every model's run
+    FoveatedCloud foveated;                  ///< the foveated cloud described (empty without foveation)
+    Features features;                       ///< the scene's keypoints, frames and descriptors
+    std::optional<OrganizedNeighbors> organized;  ///< the depth-image search (an organized scene)
+    std::optional<NeighborGrid> grid;        ///< the grid search (an unorganized scene)
+    std::optional<SceneEvidence> evidence;   ///< what verification reads (when refinement or verification is on)
+    RecognitionCounts counts;                ///< the scene's part (model counts 0)
+    RecognitionTimings timings;              ///< the scene's stages (foveate .. descriptors; total)
+    double evidence_ms = 0;                  ///< building `evidence` (inside timings.total)
+};
+
+/// Describes a scene as recognize() does before matching: foveation (optional), normals,
+/// keypoints, BOARD, SHOT, and the verification evidence.
+/// @param scene the scene cloud (must outlive the result)
+/// @param params the recognition parameters (their scene side; the rest is kept for the models)
+/// @param foveation how to foveate the scene first
+/// @return the description
+/// @throws mfpc::Error for parameters out of range or a scene without finite points
+std::unique_ptr<DescribedScene> describe_scene(const PointCloud& scene, const RecognitionParams& params,
+                                               const SceneFoveation& foveation = {});
+
+/// One model's matching, grouping, refinement and verification in a described scene: the same
+/// instances as recognize() of that model in that scene. Timings hold only this model's stages.
+/// @param described the scene, described once
+/// @param model the model to find
+/// @return the model's result (the scene's features copied in, for evaluate())
+RecognitionResult recognize_described(const DescribedScene& described, const Model& model);
+
+/// Several models in one scene, described once: per model the same instances as recognize() of
+/// that model alone, in the models' order.
+/// @param models the models to find (none may be null)
+/// @param scene the scene cloud
+/// @param params the recognition parameters
+/// @param foveation how to foveate the scene first
+/// @param scene_timings when given, receives the shared description's stage times (its verify:
+///        building the evidence)
+/// @return one result per model; their timings hold each model's own stages
+/// @throws mfpc::Error for a null model, and as describe_scene
+std::vector<RecognitionResult> recognize_models(std::span<const Model* const> models, const PointCloud& scene,
+                                                const RecognitionParams& params, const SceneFoveation& foveation = {},
+                                                RecognitionTimings* scene_timings = nullptr);
+
+}  // namespace mfpc
