@@ -1,8 +1,9 @@
 #pragma once
 
-// What the PCD and PLY readers and writers share: scalar types, loading unaligned values, parsing
-// numbers from text, the builder that keeps finite points with their source positions, and the
-// entry points cloud_io.cpp dispatches to. Private to the core module.
+// What the PCD and PLY readers and writers share: loading unaligned values of a ScalarType, the
+// builder that keeps finite points with their source positions, and the entry points cloud_io.cpp
+// dispatches to. Private to the core module; the scalar types and the text parsers are in detail/,
+// where the mesh reader in tools/ finds them too.
 
 #include <cstddef>
 #include <cstdint>
@@ -15,14 +16,11 @@
 #include <vector>
 
 #include "mfpc/core/cloud_io.hpp"
+#include "mfpc/core/detail/scalar_type.hpp"
+#include "mfpc/core/detail/text_parse.hpp"
 #include "mfpc/core/point_cloud.hpp"
 
 namespace mfpc::detail {
-
-enum class ScalarType : std::uint8_t { int8, uint8, int16, uint16, int32, uint32, int64, uint64, float32, float64 };
-
-std::size_t size_of(ScalarType type);
-bool is_integer(ScalarType type);
 
 // Loads the scalar stored at `bytes` (any alignment; `swap_bytes` for the opposite byte order) and
 // converts it to float; a double beyond float's range becomes ±infinity.
@@ -39,6 +37,9 @@ inline float load_as_float(const std::uint8_t* bytes, ScalarType type, bool swap
     return load_any_as_float(bytes, type, swap_bytes);
 }
 
+// The same as a double, exactly for every type but a 64-bit integer beyond 2^53.
+double load_as_double(const std::uint8_t* bytes, ScalarType type, bool swap_bytes);
+
 // a * b, or nothing when it does not fit: sizes computed from header numbers must not wrap around.
 inline std::optional<std::size_t> checked_product(std::size_t a, std::size_t b)
 {
@@ -54,22 +55,20 @@ std::uint32_t load_bits32(const std::uint8_t* bytes);
 
 // `value` rounded to the nearest float, ±infinity beyond float's range (a plain cast would be
 // undefined behaviour there). The PCD, PLY and foveation config readers send every double that
-// becomes a float through here.
-float narrow_to_float(double value);
-
-// Whole-token parsers for text data: false when the token is not entirely a number of that kind
-// or is out of range. A leading '+' is accepted; "nan" and "inf" are accepted by the float ones.
-bool parse_float(std::string_view token, float& value);
-bool parse_double(std::string_view token, double& value);
-bool parse_unsigned(std::string_view token, std::uint64_t& value);
-bool parse_signed(std::string_view token, std::int64_t& value);
-
-// Splits a line at spaces, tabs and carriage returns into `tokens` (cleared first).
-void split_words(std::string_view line, std::vector<std::string_view>& tokens);
-
-// `text` quoted for a one-line error message: at most 60 characters, control bytes shown as '?'.
-// Also used by the foveation config reader for every piece of user text it reports.
-std::string quoted(std::string_view text);
+// becomes a float through here; inline, because the PLY reader does so for every value.
+inline float narrow_to_float(double value)
+{
+    constexpr double largest = std::numeric_limits<float>::max();
+    // Halfway from the largest float to 2^128: from here on, round-to-nearest gives infinity.
+    // Below it a number still rounds to the largest float ("3.4028235e38", FLT_MAX's shortest
+    // text, is a little above FLT_MAX), so that case is answered here rather than left to a cast.
+    constexpr double overflow = 0x1.ffffffp127;
+    if (value >= overflow) return std::numeric_limits<float>::infinity();
+    if (value <= -overflow) return -std::numeric_limits<float>::infinity();
+    if (value > largest) return std::numeric_limits<float>::max();
+    if (value < -largest) return -std::numeric_limits<float>::max();
+    return static_cast<float>(value);
+}
 
 // Rows of text data need at least two bytes a value (the value and a separator), so no more than
 // this many rows can fit in `bytes`; used to cap reservations for text data, which a header can
