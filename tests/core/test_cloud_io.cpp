@@ -936,6 +936,14 @@ TEST(CloudIoErrors, PlyProblems)
         "ascii data continues after the last element with '4'"));
     EXPECT_TRUE(read_fails_with(file("type.ply", "ply\nformat ascii 1.0\nelement vertex 1\nproperty quad x\n"),
                                 "line 4: unknown property type 'quad'"));
+    // Ascii values are checked against their type, in the vertices and in the elements walked past.
+    EXPECT_TRUE(read_fails_with(file("int.ply", "ply\nformat ascii 1.0\nelement vertex 1\nproperty int x\n"
+                                                "property float y\nproperty float z\nend_header\n1.5 0 0\n"),
+                                "'1.5' is not an int"));
+    EXPECT_TRUE(read_fails_with(
+        file("word.ply", "ply\nformat ascii 1.0\nelement vertex 1\nproperty float x\nproperty float y\n"
+                         "property float z\nelement face 1\nproperty list uchar int v\nend_header\n1 2 3\n3 0 x 0\n"),
+        "'x' is not"));
     EXPECT_TRUE(read_fails_with(
         file("huge.ply", "ply\nformat binary_little_endian 1.0\nelement vertex 4000000000\nproperty float x\n"
                          "property float y\nproperty float z\nend_header\n" + bytes_of(three_points)),
