@@ -3,32 +3,22 @@
 # --target docs`. Every warning (an undocumented entity, parameter or return value, a malformed
 # comment) fails the target, so the reference stays complete as the headers change.
 
-# Folders whose headers make the reference, searched recursively for *.hpp. tools/ is added once
-# its headers are documented.
+# Folders whose headers make the reference, searched recursively for *.hpp: every module's public
+# headers, with those of the tools' simulation and rendering sub-libraries (the cli has none);
+# detail/ folders stay out (docs/Doxyfile.in).
 set(MFPC_DOCS_INPUTS
   ${PROJECT_SOURCE_DIR}/core/include
   ${PROJECT_SOURCE_DIR}/index/include
   ${PROJECT_SOURCE_DIR}/kernels/include
-  ${PROJECT_SOURCE_DIR}/recognition/include)
-
-# Headers left out of the reference.
-set(MFPC_DOCS_EXCLUDE
-  # Public headers not documented yet (being changed): each is taken off this list when its
-  # Doxygen comments are written.
-  ${PROJECT_SOURCE_DIR}/core/include/mfpc/core/foveated_structure.hpp
-  ${PROJECT_SOURCE_DIR}/core/include/mfpc/core/foveation_config.hpp
-  ${PROJECT_SOURCE_DIR}/recognition/include/mfpc/recognition/params.hpp
-  ${PROJECT_SOURCE_DIR}/recognition/include/mfpc/recognition/recognize.hpp
-  ${PROJECT_SOURCE_DIR}/recognition/include/mfpc/recognition/experiment.hpp
-  ${PROJECT_SOURCE_DIR}/recognition/include/mfpc/recognition/dataset.hpp)
+  ${PROJECT_SOURCE_DIR}/recognition/include
+  ${PROJECT_SOURCE_DIR}/tools/simulation/include
+  ${PROJECT_SOURCE_DIR}/tools/rendering/include)
 
 find_package(Doxygen QUIET)
 if(DOXYGEN_FOUND)
   # Doxyfile lists: one quoted path per line.
   list(JOIN MFPC_DOCS_INPUTS "\" \\\n                         \"" MFPC_DOXYGEN_INPUT)
-  list(JOIN MFPC_DOCS_EXCLUDE "\" \\\n                         \"" MFPC_DOXYGEN_EXCLUDE)
   set(MFPC_DOXYGEN_INPUT "\"${MFPC_DOXYGEN_INPUT}\"")
-  set(MFPC_DOXYGEN_EXCLUDE "\"${MFPC_DOXYGEN_EXCLUDE}\"")
   list(JOIN MFPC_DOCS_INPUTS "\" \\\n                         \"" MFPC_DOXYGEN_STRIP)
   set(MFPC_DOXYGEN_STRIP "\"${MFPC_DOXYGEN_STRIP}\"")
   set(MFPC_DOXYGEN_OUTPUT "${CMAKE_BINARY_DIR}/docs")

@@ -46,24 +46,26 @@ SceneEvidence make_scene_evidence(const PointCloud& scene, const OrganizedNeighb
 ///
 /// ICP (point to point, Umeyama per iteration) of each instance's model onto the scene, starting
 /// from its pose; then fitness: the fraction of the model points the sensor could have seen (normal
-/// within 75 degrees of the ray to the origin, not hidden behind a nearer observed surface) that
-/// have a scene point within inlier_distance; the coverage: inliers over all the model points facing
-/// the sensor, hidden or not (how much of the side of the model turned to the sensor the scene
-/// explains: for a model sampled all around an object, its back can never be seen, so it does not
-/// count, nor can a side seen nearly edge on); the thickness ratio (the fitting points' spread off
-/// their best plane over the facing side's: a model face flush on a table is no evidence of the
-/// object); the free-space violation: the fraction of all model points projecting onto an observed
-/// pixel whose surface, and that of every pixel around it, lies more than free_space_margin behind
-/// them (a solid object there would have stopped the ray, so it cannot be there); and the
-/// continuation: of the probes just past the edges of the fitting part of the model, the fraction
-/// where the scene's surface goes on rather than the sensor seeing past them (a pose slid along its
-/// object's face leaves the rest of the object there). Instances failing the limits are dropped.
+/// within acos(VerifyParams::min_facing_cos) of the ray to the origin, not hidden behind a nearer
+/// observed surface) that have a scene point within inlier_distance; the coverage: inliers over all
+/// the model points facing the sensor, hidden or not (how much of the side of the model turned to
+/// the sensor the scene explains: for a model sampled all around an object, its back can never be
+/// seen, so it does not count, nor can a side seen nearly edge on); the thickness ratio (the
+/// fitting points' spread off their best plane over the facing side's: a model face flush on a
+/// table is no evidence of the object); the free-space violation: the fraction of all model points
+/// projecting onto an observed pixel whose surface, and that of every pixel around it, lies more
+/// than free_space_margin behind them (a solid object there would have stopped the ray, so it
+/// cannot be there); and the continuation: of the probes just past the edges of the fitting part of
+/// the model, the fraction where the scene's surface goes on rather than the sensor seeing past
+/// them (a pose slid along its object's face leaves the rest of the object there). Instances
+/// failing the limits are dropped.
 ///
 /// Duplicates (placed models overlapping: merge_overlap of one's points within merge_distance of the
 /// other's): instances are taken in the order given (grouping's: most votes first), and one that
-/// starts on the place of a settled instance accepted before it (fitness at least 0.99) is dropped
-/// before its ICP; two accepted ones that overlap once refined keep the one with the better fitness.
-/// Instances keep their order otherwise.
+/// starts on the place of a settled instance accepted before it (fitness at least
+/// VerifyParams::settled_fitness) is dropped before its ICP; two accepted ones that overlap once
+/// refined keep the one that explains more of the scene (more model points fitting it, then the
+/// better coverage, then the better fitness). Instances keep their order otherwise.
 /// @param instances The hypotheses, in grouping's order.
 /// @param model_points The model cloud.
 /// @param model_normals The model cloud's normals, one per point.

@@ -1,5 +1,13 @@
 #pragma once
 
+/// @file
+/// @brief PNG files through libpng: 8-bit RGB and 16-bit greyscale images.
+///
+/// Writers go through a temporary file beside `path` and rename it, so a failure leaves no
+/// half-written image. Every failure (a bad size, a pixel buffer of the wrong length, a libpng
+/// error, an unreadable or truncated file, a file that is not a PNG) throws mfpc::Error naming the
+/// file.
+
 #include <cstdint>
 #include <filesystem>
 #include <span>
@@ -7,31 +15,48 @@
 
 namespace mfpc {
 
-// An 8-bit RGB image: pixels holds width * height * 3 bytes, row by row from the top, r g b per pixel.
+/// @brief An 8-bit RGB image: pixels holds width * height * 3 bytes, row by row from the top, r g b
+/// per pixel.
 struct RgbImage {
-    std::uint32_t width = 0;
-    std::uint32_t height = 0;
-    std::vector<std::uint8_t> pixels;
+    std::uint32_t width = 0;          ///< Width in pixels.
+    std::uint32_t height = 0;         ///< Height in pixels.
+    std::vector<std::uint8_t> pixels;  ///< width * height * 3 bytes, row by row from the top.
 };
 
-// PNG files through libpng. Writers go through a temporary file beside `path` and rename it, so a
-// failure leaves no half-written image. Every failure (a bad size, a pixel buffer of the wrong
-// length, a libpng error, an unreadable or truncated file, a file that is not a PNG) throws
-// mfpc::Error naming the file.
-
+/// @brief Writes an 8-bit RGB PNG, atomically.
+/// @param path The file.
+/// @param image The image.
+/// @throws mfpc::Error naming the file for an empty or too large size, a pixel buffer of the wrong
+/// length, a libpng error, or a file that cannot be written or renamed into place.
 void write_png(const std::filesystem::path& path, const RgbImage& image);
 
-// A 16-bit greyscale PNG (per-pixel labels, depth in millimetres): values row by row from the top.
+/// @brief Writes a 16-bit greyscale PNG (per-pixel labels, depth in millimetres), atomically.
+/// @param path The file.
+/// @param width Width in pixels.
+/// @param height Height in pixels.
+/// @param values width * height values, row by row from the top.
+/// @throws mfpc::Error naming the file for an empty or too large size, a wrong number of values, a
+/// libpng error, or a file that cannot be written or renamed into place.
 void write_png_gray16(const std::filesystem::path& path, std::uint32_t width, std::uint32_t height,
                       std::span<const std::uint16_t> values);
 
-// Any PNG as 8-bit RGB: palettes are expanded, grey is copied to r, g and b, 16-bit samples keep
-// their high byte and alpha is dropped (not composited).
+/// @brief Reads any PNG as 8-bit RGB: palettes are expanded, grey is copied to r, g and b, 16-bit
+/// samples keep their high byte and alpha is dropped (not composited).
+/// @param path The file.
+/// @return The image.
+/// @throws mfpc::Error naming the file for a missing, unreadable or truncated file, a file that is
+/// not a valid PNG, or a size or layout it cannot hold.
 RgbImage read_png_rgb(const std::filesystem::path& path);
 
-// A greyscale PNG (alpha dropped) as its sample values, unscaled: a 16-bit file gives 0..65535,
-// an 8-bit one 0..255. Colour PNGs are refused rather than converted, since a label image that
-// arrives as colour has lost its labels.
+/// @brief Reads a greyscale PNG (alpha dropped) as its sample values, unscaled: a 16-bit file gives
+/// 0..65535, an 8-bit one 0..255. Colour PNGs are refused rather than converted, since a label
+/// image that arrives as colour has lost its labels.
+/// @param path The file.
+/// @param width When given, receives the width in pixels.
+/// @param height When given, receives the height in pixels.
+/// @return width * height values, row by row from the top.
+/// @throws mfpc::Error naming the file for a colour PNG, a missing, unreadable or truncated file, a
+/// file that is not a valid PNG, or a size or layout it cannot hold.
 std::vector<std::uint16_t> read_png_gray16(const std::filesystem::path& path, std::uint32_t* width,
                                            std::uint32_t* height);
 

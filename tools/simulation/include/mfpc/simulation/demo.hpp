@@ -1,5 +1,8 @@
 #pragma once
 
+/// @file
+/// @brief `mfpc demo`: a synthesized tabletop scene recognised plain and foveated, with a picture.
+
 #include <cstdint>
 #include <filesystem>
 #include <functional>
@@ -13,50 +16,60 @@
 
 namespace mfpc {
 
-/// The scene `mfpc demo` synthesizes.
+/// @brief The scene `mfpc demo` synthesizes.
 struct DemoParams {
-    std::uint32_t seed = 1;          ///< of the scene's layout and sensor noise
-    std::uint32_t objects = 3;       ///< instances of the object to find
-    std::uint32_t distractors = 3;   ///< other built-in objects
-    std::string object = "carton";   ///< the built-in object to find
+    std::uint32_t seed = 1;          ///< Of the scene's layout and sensor noise.
+    std::uint32_t objects = 3;       ///< Instances of the object to find.
+    std::uint32_t distractors = 3;   ///< Other built-in objects.
+    std::string object = "carton";   ///< The built-in object to find.
 };
 
-/// One way the demo recognised the scene.
+/// @brief One way the demo recognised the scene.
 struct DemoStrategy {
-    std::string name;                ///< "plain" or "mfpc"
-    RecognitionResult result;
-    Evaluation evaluation;
+    std::string name;                ///< "plain" or "mfpc".
+    RecognitionResult result;        ///< What recognize() found.
+    Evaluation evaluation;           ///< Its score against the scene's ground truth.
 };
 
-/// What the demo made and found.
+/// @brief What the demo made and found.
 struct DemoRun {
-    DemoParams params;
-    std::filesystem::path directory;     ///< where the dataset and the picture went
-    SyntheticDataset dataset;
-    GroundTruth truth;
-    std::vector<DemoStrategy> strategies;  ///< plain, then mfpc with one structure per instance
-    std::filesystem::path image;         ///< the picture, once render_demo drew it
-    double synthesize_ms = 0;
-    double recognize_ms = 0;
-    double render_ms = 0;
+    DemoParams params;                   ///< The scene asked for.
+    std::filesystem::path directory;     ///< Where the dataset and the picture went.
+    SyntheticDataset dataset;            ///< The synthesized scene, its scan and the model.
+    GroundTruth truth;                   ///< The scene's ground truth.
+    std::vector<DemoStrategy> strategies;  ///< Plain, then mfpc with one structure per instance.
+    std::filesystem::path image;         ///< The picture, once render_demo drew it.
+    double synthesize_ms = 0;            ///< Synthesizing the scene and writing its dataset.
+    double recognize_ms = 0;             ///< Recognising with both strategies.
+    double render_ms = 0;                ///< Drawing the picture.
 };
 
-/// Synthesizes a tabletop scene (as `mfpc synth`), writes its dataset into `directory`, and
+/// @brief Synthesizes a tabletop scene (as `mfpc synth`), writes its dataset into `directory`, and
 /// recognises the object in it with the default parameters, without foveation and with one
-/// structure per instance. `progress` is told each step.
-/// @throws mfpc::Error for an object that is not built in, or a directory that cannot be written
+/// structure per instance.
+/// @param params The scene.
+/// @param directory Where the dataset goes; created if missing.
+/// @param progress When given, told each step.
+/// @return The run, without its picture (render_demo draws it).
+/// @throws mfpc::Error for an object that is not built in, or a directory that cannot be written,
+/// or as make_synthetic_dataset, write_synthetic_dataset, recognize() and evaluate().
 DemoRun run_demo(const DemoParams& params, const std::filesystem::path& directory,
                  const std::function<void(const std::string&)>& progress = {});
 
-/// Draws the scene as foveated, with the instances the mfpc strategy found in red, into
-/// demo.png in the run's directory, and sets `run.image` and `run.render_ms`.
-/// @throws mfpc::Error when the picture cannot be written
+/// @brief Draws the scene as foveated, with the instances the mfpc strategy (the last one) found in
+/// red, into demo.png in the run's directory, and sets `run.image` and `run.render_ms`.
+/// @param run A run of run_demo.
+/// @throws mfpc::Error for a run with no strategies, or when the picture cannot be drawn or written.
 void render_demo(DemoRun& run);
 
-/// The run as JSON text: the scene, per strategy its counts, evaluation and time, the picture.
+/// @brief The run as JSON text: the scene, per strategy its counts, evaluation and time, the picture.
+/// @param run The run.
+/// @return Indented JSON text with a final newline.
 std::string to_json(const DemoRun& run);
 
-/// The run as the text table `mfpc demo` prints.
+/// @brief The run as the text table `mfpc demo` prints.
+/// @param run The run.
+/// @return Text with a final newline.
 std::string to_table(const DemoRun& run);
 
 }  // namespace mfpc

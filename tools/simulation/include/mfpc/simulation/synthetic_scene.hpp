@@ -1,5 +1,9 @@
 #pragma once
 
+/// @file
+/// @brief Synthetic scenes: shapes from built-in objects, meshes and clouds, the scene composer,
+/// foveae around the instances, and the dataset `mfpc synth` writes.
+
 #include <cstdint>
 #include <filesystem>
 #include <string>
@@ -13,105 +17,181 @@
 
 namespace mfpc {
 
-// A shape for the scanner from a built-in object name, a mesh file (.ply, .obj) or a point-cloud
-// model (.pcd, .ply with no faces is read as a mesh error: use .pcd for clouds).
-//
-// A cloud model is turned into its own frame: `up` (in the cloud's frame; Kinect clouds have y
-// down, so the default is -y) becomes z, its footprint is centred on the z axis and its lowest
-// point lies on z = 0. Normals are estimated (k = 10, towards the cloud's sensor origin) when the
-// file has none, and the disc radius is the median nearest-neighbour distance, so neighbouring
-// discs overlap and the surface has no holes.
+/// @brief A built-in object as a shape for the scanner: its mesh and its symmetry order.
+/// @param name A built-in object's name (builtin_object_names).
+/// @return The shape, named `name`.
+/// @throws mfpc::Error naming the object for an unknown name.
 SceneShape make_builtin_shape(const std::string& name);
-// The built-in objects as shapes for compose_scene: `first` (a built-in name) first, as the object
-// to recognise, then the others, as distractors.
+/// @brief The built-in objects as shapes for compose_scene: `first` (a built-in name) first, as the
+/// object to recognise, then the others, as distractors.
+/// @param first The built-in object to recognise.
+/// @return Every built-in object's shape, `first` first.
+/// @throws mfpc::Error naming the object when `first` is not built in.
 std::vector<SceneShape> builtin_scene_shapes(const std::string& first = "carton");
+/// @brief A point-cloud model as a shape: discs with normals.
+///
+/// A cloud model is turned into its own frame: `up` (in the cloud's frame; Kinect clouds have y
+/// down, so the default is -y) becomes z, its footprint is centred on the z axis and its lowest
+/// point lies on z = 0. Normals are estimated (k = 10, towards the cloud's sensor origin) when the
+/// file has none, and the disc radius is the median nearest-neighbour distance, so neighbouring
+/// discs overlap and the surface has no holes. Points without a defined normal are left out.
+/// @param cloud The cloud model.
+/// @param name The shape's name, also named by errors.
+/// @param up The cloud's up direction, in its own frame.
+/// @return The shape.
+/// @throws mfpc::Error naming `name` for a cloud check_cloud refuses, fewer than 3 points, an up
+/// direction that is zero or not finite, points that all lie at one spot, or fewer than 3 points
+/// with a defined normal.
 SceneShape make_cloud_shape(const PointCloud& cloud, const std::string& name,
                             const Eigen::Vector3f& up = Eigen::Vector3f(0, -1, 0));
+/// @brief A shape for the scanner from a built-in object name, a mesh file (.ply, .obj) or a
+/// point-cloud model (.pcd, .ply with no faces is read as a mesh error: use .pcd for clouds).
+///
+/// A file's shape is named after its stem, made safe for a file name.
+/// @param name_or_path A built-in object's name, else a file.
+/// @param cloud_up The up direction of a cloud model, as make_cloud_shape takes it.
+/// @return The shape.
+/// @throws mfpc::Error for a name that is neither built in nor a .ply, .obj or .pcd file, or as
+/// read_mesh, read_cloud and make_cloud_shape.
 SceneShape load_shape(const std::string& name_or_path, const Eigen::Vector3f& cloud_up = Eigen::Vector3f(0, -1, 0));
 
-// The scene composer: `objects` instances of shapes[0] and `distractors` objects drawn from
-// shapes[1..], standing upright at seeded random positions and headings on a table top, never
-// interpenetrating (their footprint circles keep a gap); the placement area grows with the
-// objects' footprints so any count fits. The camera looks at the objects' centre from a seeded
-// random heading, elevation and distance, so objects in front partly hide those behind.
+/// @brief The parameters of the scene composer.
+///
+/// The scene composer: `objects` instances of shapes[0] and `distractors` objects drawn from
+/// shapes[1..], standing upright at seeded random positions and headings on a table top, never
+/// interpenetrating (their footprint circles keep a gap); the placement area grows with the
+/// objects' footprints so any count fits. The camera looks at the objects' centre from a seeded
+/// random heading, elevation and distance, so objects in front partly hide those behind.
 struct ComposeParams {
-    std::uint32_t seed = 1;
-    std::uint32_t objects = 3;
-    std::uint32_t distractors = 3;
-    float placement_half_x = 0.25f;  // metres: the table area objects stand in (grown when crowded)
-    float placement_half_y = 0.18f;
-    float gap = 0.01f;               // between footprints
-    float camera_distance_min = 0.65f;  // metres from the objects' centre
-    float camera_distance_max = 0.9f;
-    float camera_elevation_min_deg = 30.0f;  // above the table
-    float camera_elevation_max_deg = 55.0f;
+    std::uint32_t seed = 1;          ///< Of the positions, headings and the camera.
+    std::uint32_t objects = 3;       ///< Instances of shapes[0].
+    std::uint32_t distractors = 3;   ///< Objects drawn from shapes[1..].
+    float placement_half_x = 0.25f;  ///< Metres: the table area objects stand in (grown when crowded), half its x extent ...
+    float placement_half_y = 0.18f;  ///< ... and half its y extent.
+    float gap = 0.01f;               ///< Between footprints (metres).
+    float camera_distance_min = 0.65f;  ///< Metres from the objects' centre (grown with the area when crowded) ...
+    float camera_distance_max = 0.9f;   ///< ... up to this.
+    float camera_elevation_min_deg = 30.0f;  ///< Above the table (degrees) ...
+    float camera_elevation_max_deg = 55.0f;  ///< ... up to this.
 };
 
+/// @brief Composes a scene (see ComposeParams). The same shapes and parameters give the same scene
+/// with the same standard library (the random distributions are libstdc++'s).
+/// @param shapes The shape to recognise first, then the distractor shapes.
+/// @param params The composer's parameters.
+/// @return The scene: the shapes, the objects (instances first, then distractors), a table top
+/// reaching well past them, and the camera.
+/// @throws mfpc::Error for no shapes, distractors without a distractor shape, nothing to place,
+/// contradictory parameters (distances, elevations, placement area or gap), or objects that cannot
+/// be placed without overlap.
 SyntheticScene compose_scene(std::vector<SceneShape> shapes, const ComposeParams& params);
 
-// The axis-aligned box, in the camera frame, of object `index` as placed in the scene.
+/// @brief The axis-aligned box, in the camera frame, of object `index` as placed in the scene.
+/// @param scene The scene.
+/// @param index The object.
+/// @return The box of its outline's points.
+/// @throws std::out_of_range for an object or a shape the scene does not have.
 Box object_box_in_camera(const SyntheticScene& scene, std::size_t index);
 
-// One foveated structure per non-distractor object: the fovea is the object's box in the camera
-// frame grown by 1 cm, the outer box that grown by 10 cm; m = 3, d = 2 cm .. 5 mm, r = 3 cm .. 1 cm
-// (the densities and radii of the shipped milk-carton configs).
+/// @brief One foveated structure per non-distractor object: the fovea is the object's box in the
+/// camera frame grown by 1 cm, the outer box that grown by 10 cm; m = 3, d = 2 cm .. 5 mm, r = 3 cm
+/// .. 1 cm (the densities and radii of the shipped milk-carton configs).
+/// @param scene The scene.
+/// @return The config; without structures for a scene without instances.
 FoveationConfig fovea_per_instance(const SyntheticScene& scene);
-// One structure whose fovea holds every instance (the paper's FCAS strategy), sized the same way.
+/// @brief One structure whose fovea holds every instance (the paper's FCAS strategy), sized the
+/// same way.
+/// @param scene The scene.
+/// @return The config; without structures for a scene without instances.
 FoveationConfig fovea_covering_all(const SyntheticScene& scene);
 
-// What `mfpc synth` writes into a directory:
-//   scene.pcd        organized scan (binary PCD, NaN where no return), camera frame
-//   scene.gt.json    ground truth in the shared format: model file, instances (transform maps the
-//                    model cloud into the scene), plus each instance's object name and visible points
-//   labels.png       16-bit grey label per pixel: 0 no return, 1 table, 2 + i object i of scene.json
-//   scene.json       everything: seed, sensor, camera, objects (shape, distractor, poses, label, visible points)
-//   fovea.json       one foveated structure per instance (fovea_per_instance); absent without instances
-//   fovea_all.json   one structure covering every instance (fovea_covering_all); absent likewise
-//   <shape>.pcd      each shape's full model cloud with normals, in its own frame (the GT's model)
-//   <object>.mfpcm   the model cache of the object to recognise, described from views
-//                    (prepare_view_model, default recognition parameters), for `mfpc recognize`
+/// @brief A synthetic scene, its scan and what `mfpc synth` writes of it.
+///
+/// What `mfpc synth` writes into a directory:
+///
+///     scene.pcd        organized scan (binary PCD, NaN where no return), camera frame
+///     scene.gt.json    ground truth in the shared format: model file, instances (transform maps the
+///                      model cloud into the scene), plus each instance's object name and visible points
+///     labels.png       16-bit grey label per pixel: 0 no return, 1 table, 2 + i object i of scene.json
+///     scene.json       everything: seed, sensor, camera, objects (shape, distractor, poses, label, visible points)
+///     fovea.json       one foveated structure per instance (fovea_per_instance); absent without instances
+///     fovea_all.json   one structure covering every instance (fovea_covering_all); absent likewise
+///     <shape>.pcd      each shape's full model cloud with normals, in its own frame (the GT's model)
+///     <object>.mfpcm   the model cache of the object to recognise, described from views
+///                      (prepare_view_model, default recognition parameters), for `mfpc recognize`
 struct SyntheticDataset {
-    SyntheticScene scene;
-    Scan scan;
-    FoveationConfig fovea;
-    std::vector<PointCloud> models;  // per shape
-    Model model;                     // shapes[0] described from views
-    std::uint32_t seed = 0;
-    SensorParams sensor;
-    // Per object: the share of its surface the sensor would see with nothing in the way and no
-    // image border (visible_fraction_of); empty when not measured.
+    SyntheticScene scene;            ///< The composed scene.
+    Scan scan;                       ///< Its scan.
+    FoveationConfig fovea;           ///< One structure per instance (fovea_per_instance).
+    std::vector<PointCloud> models;  ///< Per shape: its full model cloud with normals, in its own frame.
+    Model model;                     ///< shapes[0] described from views (empty when not described).
+    std::uint32_t seed = 0;          ///< The composer's seed, which also keys the sensor noise.
+    SensorParams sensor;             ///< The sensor of the scan.
+    /// Per object: the share of its surface the sensor would see with nothing in the way and no
+    /// image border (visible_fraction_of); empty when not measured.
     std::vector<float> visible_fraction;
 };
 
-// Composes, scans (seed also keys the sensor noise), samples the model clouds at model_spacing and,
-// with `describe_model`, describes the object to recognise from views with `features` (a set of
-// scenes describes each shape once instead). Throws mfpc::Error when the objects need a camera
-// farther than the sensor's max_range.
+/// @brief Composes, scans (seed also keys the sensor noise), samples the model clouds at
+/// model_spacing and, with `describe_model`, describes the object to recognise from views with
+/// `features` (a set of scenes describes each shape once instead). visible_fraction is left empty.
+/// @param shapes The shape to recognise first, then the distractor shapes.
+/// @param compose The composer's parameters.
+/// @param sensor The sensor.
+/// @param model_spacing The spacing of the shapes' model clouds (sample_surface; a cloud shape's
+/// discs are its model as they are).
+/// @param features How the object to recognise is described.
+/// @param describe_model Whether to describe it.
+/// @return The dataset.
+/// @throws mfpc::Error for a sensor check_sensor refuses, a model spacing check_model_spacing
+/// refuses, when the objects need a camera farther than the sensor's max_range, or as
+/// compose_scene, the scan, sample_surface and prepare_view_model.
 SyntheticDataset make_synthetic_dataset(std::vector<SceneShape> shapes, const ComposeParams& compose,
                                         const SensorParams& sensor, float model_spacing = 0.002f,
                                         const FeatureParams& features = RecognitionParams{}.model,
                                         bool describe_model = true);
 
-// The views a dataset's model is described from: the scene sensor's noise model at VGA, 1 m away.
+/// @brief The views a dataset's model is described from: the scene sensor's noise model at VGA,
+/// 1 m away. They keep its noise, baseline, disparity quantization and incidence limit, but not its
+/// resolution, focal length or range (their 1 m distance lies in the default range whatever the
+/// scene's).
+/// @param sensor The scene's sensor.
+/// @return The views' parameters.
 ViewModelParams view_model_params(const SensorParams& sensor);
 
-// Per object of the scan: its visible points over those a scan of the object alone (no other
-// object, no table, an image twice as wide and high about the same principal point) returns, at
-// most 1: what occlusion and the image border leave of it. -1 for distractors (not measured).
+/// @brief Per object of the scan: its visible points over those a scan of the object alone (no
+/// other object, no table, an image twice as wide and high about the same principal point)
+/// returns, at most 1: what occlusion and the image border leave of it.
+/// @param scene The scene.
+/// @param scan Its scan.
+/// @param sensor The scan's sensor.
+/// @param seed The scan's seed.
+/// @return One fraction per object: -1 for distractors (not measured), 0 for an object that would
+/// not be seen even alone.
+/// @throws mfpc::Error as the scanner does.
 std::vector<float> visible_fraction_of(const SyntheticScene& scene, const Scan& scan, const SensorParams& sensor,
                                        std::uint32_t seed);
 
-// Writes the files above (each atomically) into `directory`, created if missing; the model cache
-// only when the dataset's model was described.
+/// @brief Writes the files above (those SyntheticDataset lists, each atomically) into `directory`,
+/// created if missing; the model cache only when the dataset's model was described.
+/// @param directory The directory.
+/// @param dataset The dataset.
+/// @throws mfpc::Error when the directory cannot be created or a file cannot be written.
 void write_synthetic_dataset(const std::filesystem::path& directory, const SyntheticDataset& dataset);
 
-// Creates `directory` if missing; throws mfpc::Error when it cannot be, or names a file, so a
-// command can refuse a bad output before long work.
+/// @brief Creates `directory` if missing, so a command can refuse a bad output before long work.
+/// @param directory The directory.
+/// @throws mfpc::Error when it cannot be created, or names a file.
 void prepare_output_directory(const std::filesystem::path& directory);
-// Throws mfpc::Error for a model spacing outside 0.5 mm .. 1 cm.
+/// @brief Checks a model spacing.
+/// @param spacing The spacing (metres).
+/// @throws mfpc::Error for a model spacing outside 0.5 mm .. 1 cm.
 void check_model_spacing(float spacing);
 
-// The ground truth of the dataset's instances (what scene.gt.json holds).
+/// @brief The ground truth of the dataset's instances (what scene.gt.json holds).
+/// @param dataset The dataset.
+/// @return The model file and one instance per non-distractor object, with its object name,
+/// visible points, visible fraction (when measured) and symmetry.
 GroundTruth ground_truth_of(const SyntheticDataset& dataset);
 
 }  // namespace mfpc
