@@ -12,7 +12,8 @@ set(MFPC_DOCS_INPUTS
   ${PROJECT_SOURCE_DIR}/kernels/include
   ${PROJECT_SOURCE_DIR}/recognition/include
   ${PROJECT_SOURCE_DIR}/tools/simulation/include
-  ${PROJECT_SOURCE_DIR}/tools/rendering/include)
+  ${PROJECT_SOURCE_DIR}/tools/rendering/include
+  ${PROJECT_SOURCE_DIR}/tools/batch/include)
 
 find_package(Doxygen QUIET)
 if(DOXYGEN_FOUND)

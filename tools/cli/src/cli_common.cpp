@@ -66,6 +66,13 @@ std::vector<std::string> split_list(const std::string& text)
     return items;
 }
 
+namespace {
+int command_exit_status = 0;
+}  // namespace
+
+void set_exit_status(int status) { command_exit_status = status; }
+int exit_status() { return command_exit_status; }
+
 void warn(const std::string& message) { std::cerr << "mfpc: warning: " << message << '\n'; }
 
 void warn_if_truth_of_another_model(const std::string& truth_model, const std::string& model_file,

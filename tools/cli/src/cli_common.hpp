@@ -38,6 +38,11 @@ int active_threads();
 
 void warn(const std::string& message);
 
+// The exit status of a command that finished but not wholly (batch: 3 when some scenes failed);
+// main returns it, 0 unless a command set it.
+void set_exit_status(int status);
+int exit_status();
+
 // Warns when a ground truth names a model other than the one being found (their file names differ
 // but for the extension: milk.pcd and milk.mfpcm are one model): scoring against another object's
 // poses is silently wrong. `model_file` is the model cloud's path (a cache's source); either name

@@ -59,6 +59,7 @@ int main(int argc, char** argv)
     add_demo_command(app, global);
     add_experiment_command(app, global);
     add_evaluate_command(app, global);
+    add_batch_command(app, global);
 
     // The thread limit must be in force before any command runs, so it is set from a pre-parse
     // callback: after the options are read, before the subcommand callbacks.
@@ -91,5 +92,5 @@ int main(int argc, char** argv)
         std::cerr << "mfpc: internal error: " << e.what() << '\n';
         return 1;
     }
-    return 0;
+    return exit_status();
 }

@@ -1,0 +1,143 @@
+#pragma once
+
+/// @file
+/// The batch driver: many scenes, several models, one JSON line per scene.
+
+#include <cstddef>
+#include <filesystem>
+#include <functional>
+#include <set>
+#include <string>
+#include <vector>
+
+#include "mfpc/core/foveation_config.hpp"
+#include "mfpc/recognition/model.hpp"
+#include "mfpc/recognition/params.hpp"
+#include "mfpc/recognition/recognize.hpp"
+
+namespace mfpc {
+
+/// The scenes of a batch from what the user named, in a stable order: a folder gives its .pcd and
+/// .ply files in name order; a .pcd or .ply file is itself; any other file is a list, one scene
+/// per line (blank lines and lines starting with '#' skipped; relative paths from the list's
+/// folder); a name with * ? or [ is a glob, matched in name order. The same scene named twice
+/// is kept once, where it first appears.
+/// @param specs what --scenes was given, in order
+/// @return the scene files
+/// @throws mfpc::Error naming the spec for a folder, list or file that cannot be read, a glob that
+///         matches nothing, or no scene at all
+std::vector<std::filesystem::path> list_scenes(const std::vector<std::string>& specs);
+
+/// A model of a batch: its name in the records (the file's stem) and the model itself.
+struct BatchModel {
+    std::string name;  ///< the model's file stem, as records name it
+    Model model;       ///< described, or read from its cache
+};
+
+/// What one batch runs.
+struct BatchJob {
+    std::vector<std::filesystem::path> scenes;  ///< in the order their records are written
+    std::vector<BatchModel> models;             ///< each scene is described once and matched against each
+    RecognitionParams params;                   ///< the scene side and what every model's run uses
+    const FoveationConfig* fovea = nullptr;     ///< foveate every scene with this config (mfpc mode); none: plain
+};
+
+/// One scene's outcome: its record line, and what the summary counts.
+struct SceneRecord {
+    std::size_t index = 0;                   ///< into BatchJob::scenes
+    bool ok = false;                         ///< false: the scene could not be read or recognised
+    std::string line;                        ///< the JSON record with its line break
+    std::vector<std::size_t> instances;      ///< per model (empty on error)
+};
+
+/// Reads and recognises scene `index` of the job: the record's JSON line (see the README,
+/// `mfpc batch`) with per model its instances and counts, the timings, or the error that stopped
+/// the scene. Never throws for a bad scene: that is an error record.
+/// @param job the batch
+/// @param index the scene, into job.scenes
+/// @return the record
+SceneRecord recognize_scene(const BatchJob& job, std::size_t index);
+
+/// The JSONL file a batch appends to. Every record is one line, written by one write() of the
+/// whole line and flushed, so a batch killed at any moment leaves whole lines and at most the
+/// scenes in flight missing; a torn last line (a kill inside the write, a full disk) is cut off
+/// when the file is opened again with resume.
+class BatchOutput {
+public:
+    /// Opens `path` for appending.
+    /// @param path the output file
+    /// @param resume keep the records there (cutting a torn last line) and report their scenes
+    ///        through done(); without it an existing file is an error, so that no run is lost
+    /// @throws mfpc::Error when the file exists without resume, cannot be opened, or holds a line
+    ///         that is not a batch record
+    BatchOutput(const std::filesystem::path& path, bool resume);
+    /// Flushes the records to the disk and closes the file.
+    ~BatchOutput();
+    BatchOutput(const BatchOutput&) = delete;
+    BatchOutput& operator=(const BatchOutput&) = delete;
+
+    /// @return the scenes (as their records name them) already in the file when it was opened
+    const std::set<std::string>& done() const { return done_; }
+    /// @return how many records the file held when it was opened (a resumed batch's earlier part)
+    std::size_t kept() const { return kept_; }
+
+    /// Appends one record line.
+    /// @param line the record, ending in a line break
+    /// @throws mfpc::Error when the write fails (the disk is full, ...)
+    void append(const std::string& line);
+
+private:
+    std::filesystem::path path_;
+    int fd_ = -1;
+    std::set<std::string> done_;
+    std::size_t kept_ = 0;
+};
+
+/// What a batch did.
+struct BatchSummary {
+    std::size_t scenes = 0;                   ///< in the job
+    std::size_t skipped = 0;                  ///< already in the output (resume)
+    std::size_t recognised = 0;               ///< run now and succeeded
+    std::size_t failed = 0;                   ///< run now and failed (error records)
+    std::vector<std::string> model_names;     ///< the models, in the job's order
+    std::vector<std::size_t> instances;       ///< per model, over the scenes run now
+    double seconds = 0;                       ///< wall time of the scenes run now
+};
+
+/// Called after each scene's record is written: scenes done (skipped ones included), all scenes,
+/// and the scene just written.
+using BatchProgress = std::function<void(std::size_t done, std::size_t total, const std::string& scene)>;
+
+/// Which scenes of a job this process runs: those whose index modulo `count` is `rank` (every
+/// scene for one process). Interleaving spreads scenes of unequal cost evenly when neighbours in
+/// the list are alike, as frames of a sequence are.
+struct BatchShare {
+    int rank = 0;   ///< this process, 0..count-1
+    int count = 1;  ///< processes sharing the job
+};
+
+/// Runs the job's scenes not in output.done(): read, described once, matched against every model,
+/// verified, written, through a bounded TBB pipeline (at most `in_flight` scenes at once, so memory
+/// stays flat whatever the number of scenes; 0: the threads available) that writes the records in
+/// the job's order.
+/// @param job the batch
+/// @param output where the records go
+/// @param share which scenes this process runs
+/// @param progress told after each record
+/// @param in_flight scenes in the pipeline at once (0: the worker threads)
+/// @return the summary of the scenes run now
+/// @throws mfpc::Error when a record cannot be written (a bad scene is a record, not an error)
+BatchSummary run_batch(const BatchJob& job, BatchOutput& output, const BatchShare& share = {},
+                       const BatchProgress& progress = {}, std::size_t in_flight = 0);
+
+/// The summary as a text table: scenes, skipped, recognised, failed, instances per model, throughput.
+/// @param summary what a batch did
+/// @return text with a final newline
+std::string to_table(const BatchSummary& summary);
+
+/// The summary as JSON text.
+/// @param summary what a batch did
+/// @return indented JSON text with a final newline
+std::string to_json(const BatchSummary& summary);
+
+}  // namespace mfpc

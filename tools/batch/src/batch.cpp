@@ -1,0 +1,244 @@
+#include "mfpc/batch/batch.hpp"
+
+#include <fcntl.h>
+#include <unistd.h>
+
+#include <cerrno>
+#include <chrono>
+#include <cstring>
+#include <new>
+
+#include <nlohmann/json.hpp>
+#include <tbb/info.h>
+#include <tbb/parallel_pipeline.h>
+#include <tbb/task_arena.h>
+
+#include "mfpc/core/cloud_io.hpp"
+#include "mfpc/core/detail/text_file.hpp"
+#include "mfpc/core/detail/text_format.hpp"
+#include "mfpc/core/error.hpp"
+#include "mfpc/core/pose.hpp"
+#include "mfpc/recognition/described_scene.hpp"
+
+namespace mfpc {
+namespace {
+
+using nlohmann::ordered_json;
+using Clock = std::chrono::steady_clock;
+
+double elapsed_ms(Clock::time_point since)
+{
+    return std::chrono::duration<double, std::milli>(Clock::now() - since).count();
+}
+
+// One line: no indentation, and a file name that is not UTF-8 gets U+FFFD rather than failing
+// the record after the work is done.
+std::string record_line(const ordered_json& record)
+{
+    return record.dump(-1, ' ', false, ordered_json::error_handler_t::replace) + '\n';
+}
+
+ordered_json instance_json(const Instance& instance, const Point& centroid)
+{
+    ordered_json transform = ordered_json::array();
+    for (double v : pose_to_row_major(instance.transform)) transform.push_back(v);
+    const Point position = instance.transform * centroid;
+    return {{"transform", transform},
+            {"position", {position.x(), position.y(), position.z()}},
+            {"votes", instance.votes},
+            {"fitness", instance.fitness},
+            {"coverage", instance.coverage}};
+}
+
+}  // namespace
+
+SceneRecord recognize_scene(const BatchJob& job, std::size_t index)
+{
+    SceneRecord record;
+    record.index = index;
+    const std::string scene_name = job.scenes.at(index).string();
+    const auto start = Clock::now();
+    std::string error;
+    try {
+        const PointCloud scene = read_cloud(job.scenes[index]);
+        const double read_ms = elapsed_ms(start);
+        const SceneFoveation foveation{job.fovea, job.fovea ? FoveationMode::mfpc : FoveationMode::none, 0};
+        const std::unique_ptr<DescribedScene> described = describe_scene(scene, job.params, foveation);
+        ordered_json models = ordered_json::array();
+        ordered_json model_ms = ordered_json::array();
+        for (const BatchModel& model : job.models) {
+            const RecognitionResult result = recognize_described(*described, model.model);
+            const Point centroid = model_centroid(model.model);
+            ordered_json instances = ordered_json::array();
+            for (const Instance& instance : result.instances) instances.push_back(instance_json(instance, centroid));
+            models.push_back({{"model", model.name},
+                              {"instances", instances},
+                              {"correspondences", result.counts.correspondences},
+                              {"instances_before_verification", result.counts.instances_before_verification}});
+            model_ms.push_back(result.timings.total);
+            record.instances.push_back(result.instances.size());
+        }
+        const RecognitionCounts& counts = described->counts;
+        const ordered_json json = {{"scene", scene_name},
+                                   {"status", "ok"},
+                                   {"scene_points", counts.scene_points},
+                                   {"scene_points_used", counts.scene_points_used},
+                                   {"scene_keypoints", counts.scene_keypoints},
+                                   {"models", models},
+                                   {"timings_ms",
+                                    {{"read", read_ms},
+                                     {"describe", described->timings.total},
+                                     {"models", model_ms},
+                                     {"total", elapsed_ms(start)}}}};
+        record.line = record_line(json);
+        record.ok = true;
+        return record;
+    } catch (const Error& e) {
+        error = e.what();
+    } catch (const std::bad_alloc&) {
+        error = scene_name + ": out of memory";
+    } catch (const std::exception& e) {
+        error = scene_name + ": internal error: " + e.what();
+    }
+    record.instances.clear();
+    record.line = record_line({{"scene", scene_name}, {"status", "error"}, {"error", error}});
+    return record;
+}
+
+BatchOutput::BatchOutput(const std::filesystem::path& path, bool resume) : path_(path)
+{
+    std::error_code status_error;
+    const bool exists = std::filesystem::exists(path, status_error);
+    if (exists && !resume)
+        throw Error(path.string(), "exists: pass --resume to continue that batch, or remove the file");
+    if (exists) {
+        const std::string text = read_text_file(path);
+        // A kill inside a write, or a full disk, can leave a last line without its break: that
+        // scene is run again.
+        const std::size_t whole = text.rfind('\n') == std::string::npos ? 0 : text.rfind('\n') + 1;
+        if (whole < text.size()) {
+            std::filesystem::resize_file(path, whole, status_error);
+            if (status_error) throw Error(path.string(), "cannot cut its torn last line: " + status_error.message());
+        }
+        std::size_t line_number = 0;
+        for (std::size_t begin = 0; begin < whole;) {
+            const std::size_t end = text.find('\n', begin);
+            ++line_number;
+            const std::string_view line(text.data() + begin, end - begin);
+            begin = end + 1;
+            const nlohmann::json record = nlohmann::json::parse(line, nullptr, false);
+            if (!record.is_object() || !record.contains("scene") || !record["scene"].is_string())
+                throw Error(path.string(), "line " + std::to_string(line_number) +
+                                               " is not a batch record: is this the output of `mfpc batch`?");
+            done_.insert(record["scene"].get<std::string>());
+            ++kept_;
+        }
+    }
+    fd_ = ::open(path.c_str(), O_WRONLY | O_APPEND | O_CREAT | O_CLOEXEC, 0644);
+    if (fd_ < 0) throw Error(path.string(), std::string("cannot open for appending: ") + std::strerror(errno));
+}
+
+BatchOutput::~BatchOutput()
+{
+    if (fd_ < 0) return;
+    ::fdatasync(fd_);
+    ::close(fd_);
+}
+
+void BatchOutput::append(const std::string& line)
+{
+    // One write() for the whole line: a record is in the file entirely or (after a kill) not at
+    // all; only a full disk splits it, and that is an error here and a cut line on resume.
+    std::size_t written = 0;
+    while (written < line.size()) {
+        const ssize_t n = ::write(fd_, line.data() + written, line.size() - written);
+        if (n < 0 && errno == EINTR) continue;
+        if (n <= 0) throw Error(path_.string(), std::string("cannot write a record: ") + std::strerror(errno));
+        written += std::size_t(n);
+    }
+}
+
+BatchSummary run_batch(const BatchJob& job, BatchOutput& output, const BatchShare& share,
+                       const BatchProgress& progress, std::size_t in_flight)
+{
+    if (share.count < 1 || share.rank < 0 || share.rank >= share.count)
+        throw Error("batch", "process " + std::to_string(share.rank) + " of " + std::to_string(share.count));
+    if (job.models.empty()) throw Error("batch", "no model to recognise");
+    BatchSummary summary;
+    summary.scenes = job.scenes.size();
+    for (const BatchModel& model : job.models) summary.model_names.push_back(model.name);
+    summary.instances.assign(job.models.size(), 0);
+    std::vector<std::size_t> todo;
+    for (std::size_t i = 0; i < job.scenes.size(); ++i) {
+        if (output.done().count(job.scenes[i].string())) {
+            ++summary.skipped;
+        } else if (i % std::size_t(share.count) == std::size_t(share.rank)) {
+            todo.push_back(i);
+        }
+    }
+    const std::size_t tokens =
+        in_flight > 0 ? in_flight : std::size_t(std::max(1, tbb::this_task_arena::max_concurrency()));
+    const auto start = Clock::now();
+    std::size_t next = 0;
+    std::size_t done = summary.skipped;
+    tbb::parallel_pipeline(
+        tokens,
+        tbb::make_filter<void, std::size_t>(tbb::filter_mode::serial_in_order,
+                                            [&](tbb::flow_control& control) -> std::size_t {
+                                                if (next == todo.size()) {
+                                                    control.stop();
+                                                    return 0;
+                                                }
+                                                return todo[next++];
+                                            }) &
+            tbb::make_filter<std::size_t, SceneRecord>(tbb::filter_mode::parallel,
+                                                       [&](std::size_t index) { return recognize_scene(job, index); }) &
+            tbb::make_filter<SceneRecord, void>(tbb::filter_mode::serial_in_order, [&](const SceneRecord& record) {
+                output.append(record.line);
+                if (record.ok) {
+                    ++summary.recognised;
+                    for (std::size_t m = 0; m < record.instances.size(); ++m) summary.instances[m] += record.instances[m];
+                } else {
+                    ++summary.failed;
+                }
+                if (progress) progress(++done, summary.scenes, job.scenes[record.index].string());
+            }));
+    summary.seconds = elapsed_ms(start) / 1000.0;
+    return summary;
+}
+
+std::string to_table(const BatchSummary& summary)
+{
+    using detail::format_fixed;
+    using detail::group_digits;
+    const std::size_t run = summary.recognised + summary.failed;
+    std::vector<std::pair<std::string, std::string>> rows = {
+        {"scenes", group_digits(summary.scenes) + " (" + group_digits(summary.skipped) + " already done)"},
+        {"recognised", group_digits(summary.recognised)},
+        {"failed", group_digits(summary.failed)},
+    };
+    for (std::size_t m = 0; m < summary.model_names.size(); ++m)
+        rows.emplace_back("instances of " + summary.model_names[m], group_digits(summary.instances[m]));
+    rows.emplace_back("time", format_fixed(summary.seconds, 1) + " s, " +
+                                  format_fixed(summary.seconds > 0 ? double(run) / summary.seconds : 0.0, 2) +
+                                  " scenes/s");
+    return detail::key_value_rows(rows);
+}
+
+std::string to_json(const BatchSummary& summary)
+{
+    ordered_json models = ordered_json::array();
+    for (std::size_t m = 0; m < summary.model_names.size(); ++m)
+        models.push_back({{"model", summary.model_names[m]}, {"instances", summary.instances[m]}});
+    const std::size_t run = summary.recognised + summary.failed;
+    const ordered_json json = {{"scenes", summary.scenes},
+                               {"skipped", summary.skipped},
+                               {"recognised", summary.recognised},
+                               {"failed", summary.failed},
+                               {"models", models},
+                               {"seconds", summary.seconds},
+                               {"scenes_per_second", summary.seconds > 0 ? double(run) / summary.seconds : 0.0}};
+    return json.dump(2, ' ', false, ordered_json::error_handler_t::replace) + '\n';
+}
+
+}  // namespace mfpc

@@ -1,0 +1,90 @@
+#include <iostream>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "cli_commands.hpp"
+#include "mfpc/batch/batch.hpp"
+#include "mfpc/core/foveation_config.hpp"
+#include "mfpc/recognition/model.hpp"
+
+namespace mfpc::cli {
+namespace {
+
+struct BatchOptions {
+    std::vector<std::string> models;
+    std::vector<std::string> scenes;
+    std::string output;
+    std::string params;
+    std::string fovea;
+    bool resume = false;
+};
+
+void run_batch_command(const BatchOptions& options, const GlobalOptions& global)
+{
+    BatchJob job;
+    job.scenes = list_scenes(options.scenes);
+    if (!options.params.empty()) job.params = read_recognition_params(options.params);
+    FoveationConfig fovea;
+    if (!options.fovea.empty()) {
+        std::vector<std::string> warnings;
+        fovea = read_foveation_config(options.fovea, FoveaPolicy::clamp, &warnings);
+        for (const auto& w : warnings) warn(w);
+        job.fovea = &fovea;
+    }
+    for (const std::string& file : options.models) {
+        // Without --params a cache brings its own model parameters.
+        BatchModel model{std::filesystem::path(file).stem().string(),
+                         load_model(file, job.params.model, !options.params.empty(), options.params)};
+        for (const BatchModel& other : job.models)
+            if (other.name == model.name)
+                throw CLI::ValidationError("--model", "two models named '" + model.name + "': records name models by file stem");
+        job.models.push_back(std::move(model));
+    }
+    BatchOutput output(options.output, options.resume);
+    Progress bar;
+    const BatchSummary summary = run_batch(job, output, {}, [&](std::size_t done, std::size_t total, const std::string& scene) {
+        if (!global.quiet) bar.draw(done, total, std::filesystem::path(scene).filename().string());
+    });
+    if (print_table(global)) std::cout << to_table(summary);
+    write_json(global, to_json(summary));
+    if (summary.failed > 0) {
+        warn(std::to_string(summary.failed) + " of " + std::to_string(summary.recognised + summary.failed) +
+             " scenes failed: their error records are in " + options.output);
+        set_exit_status(3);
+    }
+}
+
+}  // namespace
+
+void add_batch_command(CLI::App& app, const GlobalOptions& global)
+{
+    auto options = std::make_shared<BatchOptions>();
+    CLI::App* command = app.add_subcommand(
+        "batch", "Recognise several models in many scenes: each scene described once, a bounded parallel pipeline, "
+                 "one JSON line per scene");
+    command->add_option("--model", options->models,
+                        "Model cloud (.pcd, .ply) or cache (.mfpcm); repeat for several models")
+        ->type_name("MODEL")
+        ->required();
+    command->add_option("--scenes", options->scenes,
+                        "A folder (its .pcd and .ply files), a list file (one path a line), a cloud, or a glob "
+                        "('dir/*.pcd'); repeat to add more")
+        ->type_name("DIR|LIST|GLOB")
+        ->required();
+    command->add_option("-o,--output", options->output, "The records, one JSON line per scene (appended as they finish)")
+        ->type_name("OUT.jsonl")
+        ->required();
+    command->add_option("-p,--params", options->params, "Recognition parameters (JSON; keys in the README)")
+        ->type_name("PARAMS.json");
+    command->add_option("--fovea", options->fovea, "Foveate every scene with this config (mfpc mode) first")
+        ->type_name("FOVEA.json");
+    command->add_flag("--resume", options->resume,
+                      "Continue OUT: skip the scenes it already has (a torn last line is cut and its scene run again)");
+    command->footer("Records are in the order of the scenes. Exit status: 0 when every scene was recognised, 3 when\n"
+                    "some failed (each has an error record and the others went on), 1 or 2 for a batch that\n"
+                    "could not start.");
+    command->callback([options, &global] { run_batch_command(*options, global); });
+}
+
+}  // namespace mfpc::cli
