@@ -114,6 +114,27 @@ std::string to_json(const RecognitionReport& report)
     return detail::json_text(json);
 }
 
+std::string to_json(std::span<const RecognitionReport> reports, const RecognitionTimings& scene_timings)
+{
+    if (reports.empty()) throw Error("recognition report", "no model's report to write");
+    ordered_json models = ordered_json::array();
+    for (const RecognitionReport& report : reports) models.push_back(ordered_json::parse(to_json(report)));
+    const RecognitionTimings& t = scene_timings;
+    const ordered_json json = {{"scene", reports.front().scene_file},
+                               {"mode", to_string(reports.front().mode)},
+                               {"scene_timings_ms",
+                                {{"read_scene", reports.front().read_scene_ms},
+                                 {"foveate", t.foveate},
+                                 {"normals", t.normals},
+                                 {"keypoints", t.keypoints},
+                                 {"lrf", t.lrf},
+                                 {"descriptors", t.descriptors},
+                                 {"evidence", t.verify},
+                                 {"total", t.total}}},
+                               {"models", models}};
+    return detail::json_text(json);
+}
+
 std::string to_table(const RecognitionReport& report)
 {
     const RecognitionResult& result = report.result;

@@ -126,5 +126,34 @@ TEST(CliRecognize, ModelCacheGivesTheSameResultAndRejectsDamage)
     expect_one_line_error(stale, 1, "stale cache");
 }
 
+// Two models in one run: the scene described once, and per model the instances and score it gets
+// alone; the ground truth scores the model it was written for.
+TEST(CliRecognize, SeveralModelsFindWhatEachFindsAlone)
+{
+    MFPC_SHARED_FILE_OR_SKIP(milk, "milk.pcd");
+    MFPC_SHARED_FILE_OR_SKIP(bleach, "bleach.pcd");
+    MFPC_SHARED_FILE_OR_SKIP(scene, "milk_cartoon_all_small_clorox.pcd");
+    MFPC_SHARED_FILE_OR_SKIP(truth, "milk_cartoon_all_small_clorox.gt.json");
+    const std::string common = "--threads 2 --json - recognize --scene " + quoted(scene) + " --ground-truth " +
+                               quoted(truth) + " --model ";
+    const Result both = run(common + quoted(milk) + " --model " + quoted(bleach));
+    ASSERT_EQ(both.exit_code, 0) << both.err;
+    const auto json = nlohmann::json::parse(both.out);
+    ASSERT_EQ(json["models"].size(), 2u);
+    EXPECT_GT(json["scene_timings_ms"]["descriptors"].get<double>(), 0.0);
+    for (std::size_t m = 0; m < 2; ++m) {
+        const Result alone = run(common + quoted(m == 0 ? milk : bleach));
+        ASSERT_EQ(alone.exit_code, 0) << alone.err;
+        const auto single = nlohmann::json::parse(alone.out);
+        const auto& model = json["models"][m];
+        EXPECT_EQ(model["instances"].size(), single["instances"].size()) << m;
+        EXPECT_EQ(model["counts"]["correspondences"], single["counts"]["correspondences"]) << m;
+        for (std::size_t k = 0; k < single["instances"].size(); ++k)
+            EXPECT_EQ(model["instances"][k]["transform"], single["instances"][k]["transform"]) << m;
+    }
+    EXPECT_EQ(json["models"][0]["evaluation"]["instances_true"], 1);
+    EXPECT_FALSE(json["models"][1].contains("evaluation"));  // the truth is the milk carton's
+}
+
 }  // namespace
 }  // namespace mfpc

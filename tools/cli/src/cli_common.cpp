@@ -70,16 +70,26 @@ namespace {
 int command_exit_status = 0;
 }  // namespace
 
+RecognitionParams load_params(const std::string& path)
+{
+    return path.empty() ? RecognitionParams{} : read_recognition_params(path);
+}
+
 void set_exit_status(int status) { command_exit_status = status; }
 int exit_status() { return command_exit_status; }
 
 void warn(const std::string& message) { std::cerr << "mfpc: warning: " << message << '\n'; }
 
+bool truth_is_of(const std::string& truth_model, const std::string& model_file)
+{
+    return truth_model.empty() || model_file.empty() ||
+           std::filesystem::path(truth_model).stem() == std::filesystem::path(model_file).stem();
+}
+
 void warn_if_truth_of_another_model(const std::string& truth_model, const std::string& model_file,
                                     const std::string& truth_file)
 {
-    if (truth_model.empty() || model_file.empty()) return;
-    if (std::filesystem::path(truth_model).stem() == std::filesystem::path(model_file).stem()) return;
+    if (truth_is_of(truth_model, model_file)) return;
     warn(truth_file + " is the ground truth of model " + truth_model + ", not of " +
          std::filesystem::path(model_file).filename().string() + ": the evaluation scores against that model's poses");
 }

@@ -10,6 +10,7 @@
 #include <utility>
 
 #include "mfpc/core/detail/text_format.hpp"
+#include "mfpc/recognition/params.hpp"
 
 namespace mfpc::cli {
 
@@ -38,6 +39,10 @@ int active_threads();
 
 void warn(const std::string& message);
 
+// The recognition parameters of --params PATH (the built-in set for none): `model` and
+// `recognize` read them the same way.
+RecognitionParams load_params(const std::string& path);
+
 // The exit status of a command that finished but not wholly (batch: 3 when some scenes failed);
 // main returns it, 0 unless a command set it.
 void set_exit_status(int status);
@@ -47,6 +52,10 @@ int exit_status();
 // but for the extension: milk.pcd and milk.mfpcm are one model): scoring against another object's
 // poses is silently wrong. `model_file` is the model cloud's path (a cache's source); either name
 // empty checks nothing.
+// Whether a ground truth naming `truth_model` is that of the model file (their names equal but for
+// the extension: milk.pcd and milk.mfpcm are one model); true when either name is empty.
+bool truth_is_of(const std::string& truth_model, const std::string& model_file);
+
 void warn_if_truth_of_another_model(const std::string& truth_model, const std::string& model_file,
                                     const std::string& truth_file);
 

@@ -7,6 +7,7 @@
 #include "mfpc/core/cloud_io.hpp"
 #include "mfpc/core/error.hpp"
 #include "mfpc/core/foveation_config.hpp"
+#include "mfpc/recognition/described_scene.hpp"
 #include "mfpc/recognition/evaluation.hpp"
 #include "mfpc/recognition/ground_truth.hpp"
 #include "mfpc/recognition/model.hpp"
@@ -17,59 +18,8 @@
 namespace mfpc::cli {
 namespace {
 
-nlohmann::ordered_json feature_params_json(const FeatureParams& p)
-{
-    return nlohmann::ordered_json::parse(to_json(p));
-}
-
-// Both `model` and `recognize` read --params the same way.
-RecognitionParams load_params(const std::string& path)
-{
-    return path.empty() ? RecognitionParams{} : read_recognition_params(path);
-}
-
-struct ModelOptions {
-    std::string input;
-    std::string output;
-    std::string params;
-};
-
-void run_model(const ModelOptions& options, const GlobalOptions& global)
-{
-    if (!is_model_cache(options.output))
-        throw CLI::ValidationError("--output", "the model cache must end in .mfpcm");
-    const RecognitionParams params = load_params(options.params);
-    Stopwatch clock;
-    const PointCloud cloud = read_cloud(options.input);
-    const double read_ms = clock.lap_ms();
-    FeatureTimings timings;
-    const Model model = prepare_model(cloud, params.model, options.input, &timings);
-    const double prepare_ms = clock.lap_ms();
-    write_model_cache(options.output, model);
-    if (print_table(global)) {
-        print_rows({{"model", options.input},
-                    {"points", group_digits(model.points.size())},
-                    {"keypoints", group_digits(model.features.size()) + " (" +
-                                      group_digits(model.features.invalid) + " invalid dropped)"},
-                    {"cache", options.output},
-                    {"time (ms)", "read " + format_fixed(read_ms, 1) + "  describe " + format_fixed(prepare_ms, 1)}});
-    }
-    write_json(global, {{"model", options.input},
-                        {"cache", options.output},
-                        {"points", model.points.size()},
-                        {"keypoints", model.features.size()},
-                        {"keypoints_invalid", model.features.invalid},
-                        {"params", feature_params_json(model.params)},
-                        {"timings_ms",
-                         {{"read", read_ms},
-                          {"normals", timings.normals_ms},
-                          {"lrf", timings.lrf_ms},
-                          {"descriptors", timings.descriptors_ms},
-                          {"total", prepare_ms}}}});
-}
-
 struct RecognizeOptions {
-    std::string model;
+    std::vector<std::string> models;
     std::string scene;
     std::string fovea;
     std::string mode;  // empty: mfpc when --fovea is given
@@ -109,52 +59,59 @@ void run_recognize(const RecognizeOptions& options, const GlobalOptions& global)
     const std::optional<GroundTruth> truth =
         options.ground_truth.empty() ? std::nullopt : std::optional<GroundTruth>(read_ground_truth(options.ground_truth));
 
-    RecognitionReport report;
-    report.model_file = options.model;
-    report.scene_file = options.scene;
-    report.mode = mode;
+    // One report per model; the scene is read and described once for all of them.
+    std::vector<RecognitionReport> reports(options.models.size());
+    std::vector<Model> models;
     Stopwatch clock;
-    report.model_cached = is_model_cache(options.model);
-    // Without --params a cache brings its own model parameters.
-    const Model model =
-        load_model(options.model, params.model, !options.params.empty(), options.params, &report.model_timings);
-    report.model_ms = clock.lap_ms();
-    if (truth)
-        warn_if_truth_of_another_model(truth->model, report.model_cached ? model.source : options.model,
-                                       options.ground_truth);
+    for (std::size_t m = 0; m < options.models.size(); ++m) {
+        RecognitionReport& report = reports[m];
+        report.model_file = options.models[m];
+        report.scene_file = options.scene;
+        report.mode = mode;
+        report.model_cached = is_model_cache(report.model_file);
+        // Without --params a cache brings its own model parameters.
+        models.push_back(load_model(report.model_file, params.model, !options.params.empty(), options.params,
+                                    &report.model_timings));
+        report.model_ms = clock.lap_ms();
+        // With several models the ground truth scores the one it was written for.
+        const std::string model_file = report.model_cached ? models.back().source : report.model_file;
+        if (truth && options.models.size() == 1)
+            warn_if_truth_of_another_model(truth->model, model_file, options.ground_truth);
+    }
     const PointCloud scene = read_cloud(options.scene);
-    report.read_scene_ms = clock.lap_ms();
+    const double read_ms = clock.lap_ms();
 
     const SceneFoveation foveation{options.fovea.empty() ? nullptr : &config, mode, single_structure};
-    report.result = recognize(model, scene, params, foveation);
-    if (foveation.config != nullptr && mode != FoveationMode::none && report.result.counts.scene_points_used == 0)
-        warn("no point of the scene lies inside any structure of " + options.fovea + ": nothing to recognise");
-    if (truth) {
-        report.evaluation = evaluate(report.result, model, *truth, report.evaluation_params);
-        report.ground_truth_file = options.ground_truth;
+    RecognitionTimings scene_timings;
+    if (models.size() == 1) {
+        reports[0].result = recognize(models[0], scene, params, foveation);
+    } else {
+        std::vector<const Model*> pointers;
+        for (const Model& model : models) pointers.push_back(&model);
+        std::vector<RecognitionResult> results = recognize_models(pointers, scene, params, foveation, &scene_timings);
+        for (std::size_t m = 0; m < models.size(); ++m) reports[m].result = std::move(results[m]);
     }
-    report.model_centroid = model_centroid(model);
-    report.params = params;
-    report.model_params = model.params;
-    report.threads = active_threads();
-    report.warnings = std::move(warnings);
-    if (print_table(global)) std::cout << to_table(report);
-    write_json(global, to_json(report));
+    if (foveation.config != nullptr && mode != FoveationMode::none && reports[0].result.counts.scene_points_used == 0)
+        warn("no point of the scene lies inside any structure of " + options.fovea + ": nothing to recognise");
+    for (std::size_t m = 0; m < models.size(); ++m) {
+        RecognitionReport& report = reports[m];
+        const std::string model_file = report.model_cached ? models[m].source : report.model_file;
+        if (truth && (models.size() == 1 || truth_is_of(truth->model, model_file))) {
+            report.evaluation = evaluate(report.result, models[m], *truth, report.evaluation_params);
+            report.ground_truth_file = options.ground_truth;
+        }
+        report.read_scene_ms = read_ms;
+        report.model_centroid = model_centroid(models[m]);
+        report.params = params;
+        report.model_params = models[m].params;
+        report.threads = active_threads();
+        report.warnings = warnings;
+        if (print_table(global)) std::cout << (m ? "\n" : "") << to_table(report);
+    }
+    write_json(global, models.size() == 1 ? to_json(reports[0]) : to_json(std::span<const RecognitionReport>(reports), scene_timings));
 }
 
 }  // namespace
-
-void add_model_command(CLI::App& app, const GlobalOptions& global)
-{
-    auto options = std::make_shared<ModelOptions>();
-    CLI::App* command = app.add_subcommand(
-        "model", "Describe a model once (keypoints, BOARD frames, SHOT) and cache it for `mfpc recognize`");
-    command->add_option("MODEL", options->input, "Model cloud (.pcd or .ply)")->required();
-    command->add_option("-o,--output", options->output, "Model cache to write")->type_name("MODEL.mfpcm")->required();
-    command->add_option("-p,--params", options->params, "Recognition parameters (JSON; its \"model\" block is used)")
-        ->type_name("PARAMS.json");
-    command->callback([options, &global] { run_model(*options, global); });
-}
 
 void add_recognize_command(CLI::App& app, const GlobalOptions& global)
 {
@@ -162,7 +119,9 @@ void add_recognize_command(CLI::App& app, const GlobalOptions& global)
     CLI::App* command = app.add_subcommand(
         "recognize", "Find a model's instances in a scene: normals, keypoints, BOARD, SHOT, matching, Hough 3D, "
                      "refinement and verification (paper Section 5)");
-    command->add_option("--model", options->model, "Model cloud (.pcd, .ply) or cache from `mfpc model` (.mfpcm)")
+    command->add_option("--model", options->models,
+                        "Model cloud (.pcd, .ply) or cache from `mfpc model` (.mfpcm); repeat to find several "
+                        "models, the scene described once")
         ->type_name("MODEL")
         ->required();
     command->add_option("--scene", options->scene, "Scene cloud (.pcd or .ply)")->type_name("SCENE")->required();

@@ -6,6 +6,7 @@
 
 #include <filesystem>
 #include <optional>
+#include <span>
 #include <string>
 #include <vector>
 
@@ -46,6 +47,14 @@ struct RecognitionReport {
 /// instance).
 /// @return Indented JSON text, an object with a final newline.
 std::string to_json(const RecognitionReport& report);
+
+/// @brief Several models' reports of one scene as one JSON document: the scene, the shared
+/// description's stage times, and each model's report (as to_json of one) under "models".
+/// @param reports One per model, all of the same scene.
+/// @param scene_timings The shared description's stages (recognize_models; its verify: the evidence).
+/// @return Indented JSON text.
+/// @throws mfpc::Error for no report.
+std::string to_json(std::span<const RecognitionReport> reports, const RecognitionTimings& scene_timings);
 
 /// @brief The report as the text table `mfpc recognize` prints: inputs and counts, one row per
 /// instance, the evaluation when present, and the stage times.
