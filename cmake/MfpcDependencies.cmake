@@ -18,8 +18,11 @@ if(MFPC_BUILD_TESTS OR MFPC_BUILD_BENCH)
   set(MFPC_NEED_PCL ON)
 endif()
 
-if(MFPC_NEED_PCL)
+# MPI (C) before PCL: VTK's MPI lookup needs it, and the batch driver uses it.
+if(MFPC_NEED_PCL OR MFPC_BUILD_TOOLS)
   find_package(MPI QUIET COMPONENTS C)
+endif()
+if(MFPC_NEED_PCL)
   mfpc_require(PCL libpcl-dev 1.13 COMPONENTS common io kdtree search features filters keypoints recognition)
 endif()
 

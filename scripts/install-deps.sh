@@ -10,6 +10,7 @@ packages=(
   libgtest-dev libgmock-dev libbenchmark-dev
   libcli11-dev nlohmann-json3-dev libpng-dev gnuplot-nox
   jq  # scripts/compare-outputs.sh
+  libopenmpi-dev openmpi-bin  # mfpc batch under mpirun
   libopen3d-dev  # bench/ only: the Open3D baseline of bench_baselines
   doxygen  # the docs target: the API reference from the public headers
 )

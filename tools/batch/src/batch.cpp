@@ -6,6 +6,8 @@
 #include <cerrno>
 #include <chrono>
 #include <cstring>
+#include <fstream>
+#include <map>
 #include <new>
 
 #include <nlohmann/json.hpp>
@@ -14,9 +16,11 @@
 #include <tbb/task_arena.h>
 
 #include "mfpc/core/cloud_io.hpp"
+#include "mfpc/core/detail/atomic_file.hpp"
 #include "mfpc/core/detail/text_file.hpp"
 #include "mfpc/core/detail/text_format.hpp"
 #include "mfpc/core/error.hpp"
+#include "mfpc/core/peak_memory.hpp"
 #include "mfpc/core/pose.hpp"
 #include "mfpc/recognition/described_scene.hpp"
 
@@ -50,7 +54,60 @@ ordered_json instance_json(const Instance& instance, const Point& centroid)
             {"coverage", instance.coverage}};
 }
 
+// The whole lines of a batch output (a torn last line left out), each checked to be a record.
+std::vector<std::pair<std::string, std::string>> record_lines(const std::string& text, const std::filesystem::path& path)
+{
+    std::vector<std::pair<std::string, std::string>> records;  // scene, line with its break
+    std::size_t line_number = 0;
+    for (std::size_t begin = 0; begin < text.size();) {
+        const std::size_t end = text.find('\n', begin);
+        if (end == std::string::npos) break;
+        ++line_number;
+        const std::string_view line(text.data() + begin, end - begin);
+        const nlohmann::json record = nlohmann::json::parse(line, nullptr, false);
+        if (!record.is_object() || !record.contains("scene") || !record["scene"].is_string())
+            throw Error(path.string(), "line " + std::to_string(line_number) +
+                                           " is not a batch record: is this the output of `mfpc batch`?");
+        records.emplace_back(record["scene"].get<std::string>(), std::string(text, begin, end + 1 - begin));
+        begin = end + 1;
+    }
+    return records;
+}
+
 }  // namespace
+
+std::set<std::string> BatchOutput::scenes_in(const std::filesystem::path& path)
+{
+    std::set<std::string> scenes;
+    std::error_code error;
+    if (!std::filesystem::exists(path, error)) return scenes;
+    for (const auto& [scene, line] : record_lines(read_text_file(path), path)) scenes.insert(scene);
+    return scenes;
+}
+
+std::filesystem::path part_path(const std::filesystem::path& output, int rank)
+{
+    return output.string() + ".part-" + std::to_string(rank);
+}
+
+void merge_parts(const BatchJob& job, const std::filesystem::path& output,
+                 const std::vector<std::filesystem::path>& parts)
+{
+    std::error_code error;
+    std::string merged;
+    if (std::filesystem::exists(output, error))
+        for (const auto& [scene, line] : record_lines(read_text_file(output), output)) merged += line;
+    std::map<std::string, std::string> lines;
+    for (const std::filesystem::path& part : parts)
+        if (std::filesystem::exists(part, error))
+            for (auto& [scene, line] : record_lines(read_text_file(part), part)) lines[scene] = std::move(line);
+    for (const std::filesystem::path& scene : job.scenes) {
+        const auto line = lines.find(scene.string());
+        if (line != lines.end()) merged += line->second;
+    }
+    write_file_atomically(output, [&](std::ofstream& out) { out << merged; });
+    for (const std::filesystem::path& part : parts) std::filesystem::remove(part, error);
+}
 
 SceneRecord recognize_scene(const BatchJob& job, std::size_t index)
 {
@@ -120,19 +177,9 @@ BatchOutput::BatchOutput(const std::filesystem::path& path, bool resume) : path_
             std::filesystem::resize_file(path, whole, status_error);
             if (status_error) throw Error(path.string(), "cannot cut its torn last line: " + status_error.message());
         }
-        std::size_t line_number = 0;
-        for (std::size_t begin = 0; begin < whole;) {
-            const std::size_t end = text.find('\n', begin);
-            ++line_number;
-            const std::string_view line(text.data() + begin, end - begin);
-            begin = end + 1;
-            const nlohmann::json record = nlohmann::json::parse(line, nullptr, false);
-            if (!record.is_object() || !record.contains("scene") || !record["scene"].is_string())
-                throw Error(path.string(), "line " + std::to_string(line_number) +
-                                               " is not a batch record: is this the output of `mfpc batch`?");
-            done_.insert(record["scene"].get<std::string>());
-            ++kept_;
-        }
+        const auto records = record_lines(text.substr(0, whole), path);
+        for (const auto& [scene, line] : records) done_.insert(scene);
+        kept_ = records.size();
     }
     fd_ = ::open(path.c_str(), O_WRONLY | O_APPEND | O_CREAT | O_CLOEXEC, 0644);
     if (fd_ < 0) throw Error(path.string(), std::string("cannot open for appending: ") + std::strerror(errno));
@@ -204,6 +251,7 @@ BatchSummary run_batch(const BatchJob& job, BatchOutput& output, const BatchShar
                 if (progress) progress(++done, summary.scenes, job.scenes[record.index].string());
             }));
     summary.seconds = elapsed_ms(start) / 1000.0;
+    summary.peak_memory_bytes = peak_memory_bytes();
     return summary;
 }
 
@@ -222,6 +270,8 @@ std::string to_table(const BatchSummary& summary)
     rows.emplace_back("time", format_fixed(summary.seconds, 1) + " s, " +
                                   format_fixed(summary.seconds > 0 ? double(run) / summary.seconds : 0.0, 2) +
                                   " scenes/s");
+    if (summary.peak_memory_bytes > 0)
+        rows.emplace_back("peak memory", format_fixed(double(summary.peak_memory_bytes) / (1024.0 * 1024.0), 0) + " MiB");
     return detail::key_value_rows(rows);
 }
 
@@ -237,6 +287,7 @@ std::string to_json(const BatchSummary& summary)
                                {"failed", summary.failed},
                                {"models", models},
                                {"seconds", summary.seconds},
+                               {"peak_memory_bytes", summary.peak_memory_bytes},
                                {"scenes_per_second", summary.seconds > 0 ? double(run) / summary.seconds : 0.0}};
     return json.dump(2, ' ', false, ordered_json::error_handler_t::replace) + '\n';
 }

@@ -1,3 +1,5 @@
+#include <algorithm>
+#include <filesystem>
 #include <iostream>
 #include <memory>
 #include <string>
@@ -5,6 +7,8 @@
 
 #include "cli_commands.hpp"
 #include "mfpc/batch/batch.hpp"
+#include "mfpc/batch/process_group.hpp"
+#include "mfpc/core/error.hpp"
 #include "mfpc/core/foveation_config.hpp"
 #include "mfpc/recognition/model.hpp"
 
@@ -41,16 +45,45 @@ void run_batch_command(const BatchOptions& options, const GlobalOptions& global)
                 throw CLI::ValidationError("--model", "two models named '" + model.name + "': records name models by file stem");
         job.models.push_back(std::move(model));
     }
-    BatchOutput output(options.output, options.resume);
+    // Under mpirun every process runs every N-th scene into its own part; rank 0 merges the parts
+    // in the scenes' order, so the output is the one a single process writes.
+    const ProcessGroup group;
+    const bool shared = group.size() > 1;
+    if (shared && !options.resume && std::filesystem::exists(options.output))
+        throw Error(options.output, "exists: pass --resume to continue that batch, or remove the file");
+    BatchOutput output(shared ? part_path(options.output, group.rank()) : std::filesystem::path(options.output),
+                       options.resume);
+    if (shared) output.mark_done(BatchOutput::scenes_in(options.output));
     Progress bar;
-    const BatchSummary summary = run_batch(job, output, {}, [&](std::size_t done, std::size_t total, const std::string& scene) {
-        if (!global.quiet) bar.draw(done, total, std::filesystem::path(scene).filename().string());
+    BatchSummary summary = run_batch(job, output, {group.rank(), group.size()},
+                                     [&](std::size_t done, std::size_t total, const std::string& scene) {
+        if (!global.quiet && group.rank() == 0) bar.draw(done, total, std::filesystem::path(scene).filename().string());
     });
-    if (print_table(global)) std::cout << to_table(summary);
-    write_json(global, to_json(summary));
+    if (shared) {
+        group.barrier();  // every part is complete
+        if (group.rank() == 0) {
+            std::vector<std::filesystem::path> parts;
+            for (int rank = 0; rank < group.size(); ++rank) parts.push_back(part_path(options.output, rank));
+            merge_parts(job, options.output, parts);
+        }
+        std::vector<std::uint64_t> counts = {summary.recognised, summary.failed};
+        counts.insert(counts.end(), summary.instances.begin(), summary.instances.end());
+        counts = group.sum(counts);
+        summary.recognised = counts[0];
+        summary.failed = counts[1];
+        std::copy(counts.begin() + 2, counts.end(), summary.instances.begin());
+        summary.skipped = summary.scenes - summary.recognised - summary.failed;
+        summary.seconds = group.max(summary.seconds);
+        summary.peak_memory_bytes = std::size_t(group.max(double(summary.peak_memory_bytes)));
+    }
+    if (group.rank() == 0) {
+        if (print_table(global)) std::cout << to_table(summary);
+        write_json(global, to_json(summary));
+    }
     if (summary.failed > 0) {
-        warn(std::to_string(summary.failed) + " of " + std::to_string(summary.recognised + summary.failed) +
-             " scenes failed: their error records are in " + options.output);
+        if (group.rank() == 0)
+            warn(std::to_string(summary.failed) + " of " + std::to_string(summary.recognised + summary.failed) +
+                 " scenes failed: their error records are in " + options.output);
         set_exit_status(3);
     }
 }
@@ -81,7 +114,8 @@ void add_batch_command(CLI::App& app, const GlobalOptions& global)
         ->type_name("FOVEA.json");
     command->add_flag("--resume", options->resume,
                       "Continue OUT: skip the scenes it already has (a torn last line is cut and its scene run again)");
-    command->footer("Records are in the order of the scenes. Exit status: 0 when every scene was recognised, 3 when\n"
+    command->footer("Records are in the order of the scenes. Under `mpirun -np N` the processes share the scenes\n"
+                    "(every N-th each, into OUT.part-RANK) and rank 0 merges them into OUT in the scenes' order. Exit status: 0 when every scene was recognised, 3 when\n"
                     "some failed (each has an error record and the others went on), 1 or 2 for a batch that\n"
                     "could not start.");
     command->callback([options, &global] { run_batch_command(*options, global); });

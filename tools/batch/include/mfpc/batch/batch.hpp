@@ -81,6 +81,16 @@ public:
     /// @return how many records the file held when it was opened (a resumed batch's earlier part)
     std::size_t kept() const { return kept_; }
 
+    /// Counts `scenes` as done as well (those another file already holds).
+    /// @param scenes scene names as records give them
+    void mark_done(const std::set<std::string>& scenes) { done_.insert(scenes.begin(), scenes.end()); }
+
+    /// The scenes a batch output holds, read without changing it; a torn last line is not counted.
+    /// @param path the output (nothing when it does not exist)
+    /// @return the scenes of its whole records
+    /// @throws mfpc::Error for a line that is not a batch record
+    static std::set<std::string> scenes_in(const std::filesystem::path& path);
+
     /// Appends one record line.
     /// @param line the record, ending in a line break
     /// @throws mfpc::Error when the write fails (the disk is full, ...)
@@ -102,6 +112,7 @@ struct BatchSummary {
     std::vector<std::string> model_names;     ///< the models, in the job's order
     std::vector<std::size_t> instances;       ///< per model, over the scenes run now
     double seconds = 0;                       ///< wall time of the scenes run now
+    std::size_t peak_memory_bytes = 0;        ///< the process's peak resident memory at the end (0: unknown)
 };
 
 /// Called after each scene's record is written: scenes done (skipped ones included), all scenes,
@@ -129,6 +140,22 @@ struct BatchShare {
 /// @throws mfpc::Error when a record cannot be written (a bad scene is a record, not an error)
 BatchSummary run_batch(const BatchJob& job, BatchOutput& output, const BatchShare& share = {},
                        const BatchProgress& progress = {}, std::size_t in_flight = 0);
+
+/// Where process `rank` of a shared batch writes its records before they are merged: OUT.part-RANK.
+/// @param output the batch's output
+/// @param rank the process
+/// @return the part's path
+std::filesystem::path part_path(const std::filesystem::path& output, int rank);
+
+/// Merges the parts of a shared batch into its output: the records already there first, then every
+/// part's in the job's order, so that the output is the one a single process writes (timings
+/// aside); written to a temporary file and renamed, then the parts are removed.
+/// @param job the batch
+/// @param output the batch's output (may not exist yet)
+/// @param parts the processes' parts
+/// @throws mfpc::Error when a file cannot be read or written, or holds a line that is not a record
+void merge_parts(const BatchJob& job, const std::filesystem::path& output,
+                 const std::vector<std::filesystem::path>& parts);
 
 /// The summary as a text table: scenes, skipped, recognised, failed, instances per model, throughput.
 /// @param summary what a batch did

@@ -1,0 +1,61 @@
+# `mpirun -np 2 mfpc batch` writes the output one process writes, timings aside: the scenes are shared
+# between the ranks and rank 0 merges their parts in the scenes' order. A corrupt scene is an error
+# record in both (exit 3). Skips (exit 77) without the shared data.
+foreach(var MFPC MPIEXEC DATA_DIR WORK_DIR)
+  if(NOT DEFINED ${var})
+    message(FATAL_ERROR "mpi_batch_test: -D${var}=... is required")
+  endif()
+endforeach()
+if(NOT EXISTS "${DATA_DIR}/milk.pcd")
+  message("mpi_batch_test: no shared data in ${DATA_DIR}: skipped")
+  cmake_language(EXIT 77)
+endif()
+file(REMOVE_RECURSE "${WORK_DIR}")
+file(MAKE_DIRECTORY "${WORK_DIR}")
+file(WRITE "${WORK_DIR}/corrupt.pcd" "# .PCD v0.7\nVERSION 0.7\nFIELDS x y z\n")
+file(WRITE "${WORK_DIR}/scenes.txt"
+     "${DATA_DIR}/milk_pair.pcd\n${WORK_DIR}/corrupt.pcd\n${DATA_DIR}/floor_laptop.pcd\n"
+     "${DATA_DIR}/milk_near_far.pcd\n${DATA_DIR}/milk_cartoon_all_small_clorox.pcd\n")
+
+set(batch batch --model "${DATA_DIR}/milk.pcd" --scenes "${WORK_DIR}/scenes.txt")
+execute_process(COMMAND "${MFPC}" --threads 1 -q ${batch} -o "${WORK_DIR}/single.jsonl"
+                RESULT_VARIABLE single_status ERROR_VARIABLE single_err)
+set(launcher "${MPIEXEC}" -np 2 --oversubscribe)
+execute_process(COMMAND id -u OUTPUT_VARIABLE uid OUTPUT_STRIP_TRAILING_WHITESPACE)
+if(uid STREQUAL "0")
+  list(APPEND launcher --allow-run-as-root)
+endif()
+execute_process(COMMAND ${launcher} "${MFPC}" --threads 1 -q ${batch} -o "${WORK_DIR}/mpi.jsonl"
+                RESULT_VARIABLE mpi_status ERROR_VARIABLE mpi_err)
+if(NOT single_status EQUAL 3 OR NOT mpi_status EQUAL 3)
+  message(FATAL_ERROR "expected exit 3 (one corrupt scene): single ${single_status}, mpi ${mpi_status}\n"
+                      "${single_err}\n${mpi_err}")
+endif()
+file(GLOB parts "${WORK_DIR}/mpi.jsonl.part-*")
+if(parts)
+  message(FATAL_ERROR "parts left after the merge: ${parts}")
+endif()
+
+# Every record without its timings.
+function(records file out)
+  file(STRINGS "${file}" lines)
+  set(result "")
+  foreach(line IN LISTS lines)
+    string(JSON has_timings ERROR_VARIABLE no_timings GET "${line}" timings_ms)
+    if(NOT no_timings)
+      string(JSON line REMOVE "${line}" timings_ms)
+    endif()
+    list(APPEND result "${line}")
+  endforeach()
+  set(${out} "${result}" PARENT_SCOPE)
+endfunction()
+records("${WORK_DIR}/single.jsonl" single)
+records("${WORK_DIR}/mpi.jsonl" mpi)
+list(LENGTH single count)
+if(NOT count EQUAL 5)
+  message(FATAL_ERROR "the single-process batch wrote ${count} records, not 5")
+endif()
+if(NOT single STREQUAL mpi)
+  message(FATAL_ERROR "mpirun -np 2 wrote other records than one process:\n${single}\n---\n${mpi}")
+endif()
+message("mpi_batch_test: 5 records, the same from 2 ranks as from one process")
