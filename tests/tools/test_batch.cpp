@@ -9,6 +9,7 @@
 #include <tbb/global_control.h>
 
 #include "mfpc/batch/batch.hpp"
+#include "mfpc/batch/scaling.hpp"
 #include "mfpc/core/cloud_io.hpp"
 #include "mfpc/core/error.hpp"
 #include "mfpc/recognition/recognize.hpp"
@@ -220,6 +221,38 @@ TEST(Batch, NeedsAModelAndAValidShare)
     EXPECT_THROW(run_batch(none, output), Error);
 }
 
+TEST(Scaling, OnePointPerThreadCountAndTheFirstIsTheReference)
+{
+    EXPECT_EQ(default_thread_counts(1), (std::vector<int>{1}));
+    EXPECT_EQ(default_thread_counts(6), (std::vector<int>{1, 2, 4, 6}));
+    EXPECT_EQ(default_thread_counts(16), (std::vector<int>{1, 2, 4, 8, 16}));
+
+    SmallBatch batch;
+    const std::vector<ScalingPoint> points = run_scaling(batch.job, {1, 2}, batch.dir.path());
+    ASSERT_EQ(points.size(), 2u);
+    EXPECT_EQ(points[1].threads, 2);
+    for (const ScalingPoint& point : points) {
+        EXPECT_EQ(point.summary.recognised, 3u);
+        EXPECT_GT(point.summary.stages.describe, 0.0);
+        EXPECT_GE(point.summary.stages.total, point.summary.stages.describe + point.summary.stages.models);
+    }
+    // Each count's records are the same but for their timings.
+    const std::vector<json> one = records_of(batch.dir / "threads_1.jsonl");
+    const std::vector<json> two = records_of(batch.dir / "threads_2.jsonl");
+    ASSERT_EQ(one.size(), two.size());
+    for (std::size_t i = 0; i < one.size(); ++i) EXPECT_EQ(without_timings(one[i]), without_timings(two[i]));
+
+    const std::string csv = to_csv(points);
+    EXPECT_EQ(std::count(csv.begin(), csv.end(), '\n'), 3);
+    EXPECT_EQ(csv.find("threads,scenes,seconds,scenes_per_second,speedup,efficiency"), 0u);
+    const json study = json::parse(to_json(points));
+    EXPECT_DOUBLE_EQ(study["points"][0]["speedup"].get<double>(), 1.0);
+    EXPECT_DOUBLE_EQ(study["points"][0]["efficiency"].get<double>(), 1.0);
+    EXPECT_NEAR(study["points"][1]["efficiency"].get<double>(), study["points"][1]["speedup"].get<double>() / 2, 1e-12);
+    EXPECT_THROW(to_csv({}), Error);
+    EXPECT_THROW(run_scaling(batch.job, {0}, batch.dir.path()), Error);
+}
+
 // `mfpc batch` as a user meets it: a bad file among the scenes is a record and exit status 3; an
 // earlier output is never overwritten; killed with SIGKILL in the middle and resumed, every scene
 // is there exactly once.
@@ -255,7 +288,9 @@ TEST(CliBatch, ABadSceneIsARecordAndAKilledBatchResumes)
         EXPECT_TRUE(scenes.insert(record["scene"].get<std::string>()).second) << record["scene"];
         const bool bad = record["scene"].get<std::string>().ends_with("scene3b.pcd");
         EXPECT_EQ(record["status"], bad ? "error" : "ok");
-        if (!bad) EXPECT_EQ(record["models"][0]["instances"].size(), 2u);
+        if (!bad) {
+            EXPECT_EQ(record["models"][0]["instances"].size(), 2u);
+        }
     }
 }
 

@@ -119,6 +119,7 @@ SceneRecord recognize_scene(const BatchJob& job, std::size_t index)
     try {
         const PointCloud scene = read_cloud(job.scenes[index]);
         const double read_ms = elapsed_ms(start);
+        record.stages.read = read_ms;
         const SceneFoveation foveation{job.fovea, job.fovea ? FoveationMode::mfpc : FoveationMode::none, 0};
         const std::unique_ptr<DescribedScene> described = describe_scene(scene, job.params, foveation);
         ordered_json models = ordered_json::array();
@@ -133,8 +134,11 @@ SceneRecord recognize_scene(const BatchJob& job, std::size_t index)
                               {"correspondences", result.counts.correspondences},
                               {"instances_before_verification", result.counts.instances_before_verification}});
             model_ms.push_back(result.timings.total);
+            record.stages.models += result.timings.total;
             record.instances.push_back(result.instances.size());
         }
+        record.stages.describe = described->timings.total;
+        record.stages.total = elapsed_ms(start);
         const RecognitionCounts& counts = described->counts;
         const ordered_json json = {{"scene", scene_name},
                                    {"status", "ok"},
@@ -146,7 +150,7 @@ SceneRecord recognize_scene(const BatchJob& job, std::size_t index)
                                     {{"read", read_ms},
                                      {"describe", described->timings.total},
                                      {"models", model_ms},
-                                     {"total", elapsed_ms(start)}}}};
+                                     {"total", record.stages.total}}}};
         record.line = record_line(json);
         record.ok = true;
         return record;
@@ -158,6 +162,7 @@ SceneRecord recognize_scene(const BatchJob& job, std::size_t index)
         error = scene_name + ": internal error: " + e.what();
     }
     record.instances.clear();
+    record.stages.total = elapsed_ms(start);
     record.line = record_line({{"scene", scene_name}, {"status", "error"}, {"error", error}});
     return record;
 }
@@ -242,6 +247,10 @@ BatchSummary run_batch(const BatchJob& job, BatchOutput& output, const BatchShar
                                                        [&](std::size_t index) { return recognize_scene(job, index); }) &
             tbb::make_filter<SceneRecord, void>(tbb::filter_mode::serial_in_order, [&](const SceneRecord& record) {
                 output.append(record.line);
+                summary.stages.read += record.stages.read;
+                summary.stages.describe += record.stages.describe;
+                summary.stages.models += record.stages.models;
+                summary.stages.total += record.stages.total;
                 if (record.ok) {
                     ++summary.recognised;
                     for (std::size_t m = 0; m < record.instances.size(); ++m) summary.instances[m] += record.instances[m];

@@ -28,7 +28,7 @@ void run_batch_command(const BatchOptions& options, const GlobalOptions& global)
 {
     BatchJob job;
     job.scenes = list_scenes(options.scenes);
-    if (!options.params.empty()) job.params = read_recognition_params(options.params);
+    job.params = load_params(options.params);
     FoveationConfig fovea;
     if (!options.fovea.empty()) {
         std::vector<std::string> warnings;

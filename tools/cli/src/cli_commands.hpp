@@ -19,5 +19,6 @@ void add_experiment_command(CLI::App& app, const GlobalOptions& global);
 void add_evaluate_command(CLI::App& app, const GlobalOptions& global);
 void add_synth_set_command(CLI::App& app, const GlobalOptions& global);
 void add_batch_command(CLI::App& app, const GlobalOptions& global);
+void add_scaling_command(CLI::App& app, const GlobalOptions& global);
 
 }  // namespace mfpc::cli

@@ -60,6 +60,7 @@ int main(int argc, char** argv)
     add_experiment_command(app, global);
     add_evaluate_command(app, global);
     add_batch_command(app, global);
+    add_scaling_command(app, global);
 
     // The thread limit must be in force before any command runs, so it is set from a pre-parse
     // callback: after the options are read, before the subcommand callbacks.

@@ -9,6 +9,7 @@
 #include <fstream>
 
 #include "mfpc/core/detail/atomic_file.hpp"
+#include "mfpc/core/detail/text_file.hpp"
 #include "mfpc/core/error.hpp"
 
 extern "C" char** environ;
@@ -83,6 +84,36 @@ void write_experiment_charts(const std::filesystem::path& directory, const std::
     });
     if (run_gnuplot(directory, "charts.gnuplot", "charts.log") != 0)
         throw Error("experiment", "gnuplot failed drawing the charts (see " + (directory / "charts.log").string() + ")");
+}
+
+void write_scaling_charts(const std::filesystem::path& directory)
+{
+    // The ideal speed-up line is threads / the first row's threads.
+    const std::string data = read_text_file(directory / "scaling.csv");
+    const std::size_t row = data.find('\n');
+    const std::size_t comma = row == std::string::npos ? std::string::npos : data.find(',', row);
+    const std::string first = comma == std::string::npos ? "1" : data.substr(row + 1, comma - row - 1);
+    if (first.empty() || first.find_first_not_of("0123456789") != std::string::npos)
+        throw Error((directory / "scaling.csv").string(), "its first row does not start with a thread count");
+    write_file_atomically(directory / "scaling.gnuplot", [&](std::ofstream& out) {
+        out << "first = " << first << ".0\n"
+               "set terminal pngcairo size 800,480 noenhanced font 'sans,10'\n"
+               "set datafile separator ','\nset key left top\nset grid\n"
+               "set xlabel 'worker threads'\nset logscale x 2\nset yrange [0:*]\n"
+               "set output 'scaling_throughput.png'\nset title 'Batch throughput'\nset ylabel 'scenes per second'\n"
+               "plot 'scaling.csv' using 1:4 skip 1 with linespoints lw 2 pt 7 title 'throughput'\n"
+               "set output 'scaling_speedup.png'\nset title 'Speed-up against the first thread count'\n"
+               "set ylabel 'speed-up'\n"
+               "plot 'scaling.csv' using 1:5 skip 1 with linespoints lw 2 pt 7 title 'measured', "
+               "'' using 1:($1/first) skip 1 with lines dt 2 title 'ideal'\n"
+               "set output 'scaling_efficiency.png'\nset title 'Efficiency (1 = ideal)'\nset ylabel 'efficiency'\n"
+               "set yrange [0:1.5]\n"
+               "plot 'scaling.csv' using 1:6 skip 1 with linespoints lw 2 pt 7 title 'end to end', "
+               "'' using 1:7 skip 1 with linespoints title 'read', '' using 1:8 skip 1 with linespoints title "
+               "'describe', '' using 1:9 skip 1 with linespoints title 'models'\n";
+    });
+    if (run_gnuplot(directory, "scaling.gnuplot", "scaling.log") != 0)
+        throw Error("scaling", "gnuplot failed drawing the charts (see " + (directory / "scaling.log").string() + ")");
 }
 
 }  // namespace mfpc

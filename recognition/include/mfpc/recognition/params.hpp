@@ -138,7 +138,10 @@ struct VerifyParams {
 /// tutorial's 0.015 / 0.02, so they survive sensor noise).
 struct RecognitionParams {
     FeatureParams scene{0.005f, 30, 0.015f, 0.04f, 0.04f};  ///< How the scene is described.
-    FeatureParams model{0.005f, 30, 0.01f, 0.04f, 0.04f};   ///< How the model is described.
+    /// How a model cloud is described: what prepare_model and load_model read (the params file's
+    /// "model" block). recognize() takes a described Model and uses the parameters it carries
+    /// (Model::params), never this; reports show the model's own.
+    FeatureParams model{0.005f, 30, 0.01f, 0.04f, 0.04f};
     /// A foveated scene is described at its levels' densities, as a plain one at the resolution: its normals
     /// come from the foveated cloud (on the synthetic sets: 164 of 215 visible instances and 5 false,
     /// against 158 and 8 from the full scene's raw points).

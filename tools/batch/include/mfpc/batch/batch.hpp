@@ -42,12 +42,23 @@ struct BatchJob {
     const FoveationConfig* fovea = nullptr;     ///< foveate every scene with this config (mfpc mode); none: plain
 };
 
+/// Milliseconds of a batch's stages, summed over scenes: reading, the scene's description (foveation,
+/// normals, keypoints, frames, descriptors, evidence), and the models' matching, grouping and
+/// verification.
+struct StageTimes {
+    double read = 0;      ///< reading the scene files
+    double describe = 0;  ///< describing each scene once
+    double models = 0;    ///< every model's matching, grouping, refinement and verification
+    double total = 0;     ///< each scene from its read to its record
+};
+
 /// One scene's outcome: its record line, and what the summary counts.
 struct SceneRecord {
     std::size_t index = 0;                   ///< into BatchJob::scenes
     bool ok = false;                         ///< false: the scene could not be read or recognised
     std::string line;                        ///< the JSON record with its line break
     std::vector<std::size_t> instances;      ///< per model (empty on error)
+    StageTimes stages;                       ///< where the scene's time went (what was reached on error)
 };
 
 /// Reads and recognises scene `index` of the job: the record's JSON line (see the README,
@@ -111,6 +122,7 @@ struct BatchSummary {
     std::size_t failed = 0;                   ///< run now and failed (error records)
     std::vector<std::string> model_names;     ///< the models, in the job's order
     std::vector<std::size_t> instances;       ///< per model, over the scenes run now
+    StageTimes stages;                        ///< summed over the scenes run now (worker time, not wall time)
     double seconds = 0;                       ///< wall time of the scenes run now
     std::size_t peak_memory_bytes = 0;        ///< the process's peak resident memory at the end (0: unknown)
 };

@@ -25,4 +25,11 @@ void require_gnuplot();
 /// @throws mfpc::Error when a file cannot be written or gnuplot fails or cannot be started.
 void write_experiment_charts(const std::filesystem::path& directory, const std::string& chart_data);
 
+/// Draws a scaling study's charts with gnuplot into `directory` from its scaling.csv there (as
+/// mfpc::to_csv of the study writes it): scaling_throughput.png (scenes per second against threads),
+/// scaling_speedup.png (with the ideal line) and scaling_efficiency.png (end to end and per stage).
+/// @param directory the folder holding scaling.csv
+/// @throws mfpc::Error when the script cannot be written or gnuplot fails or cannot be started
+void write_scaling_charts(const std::filesystem::path& directory);
+
 }  // namespace mfpc
