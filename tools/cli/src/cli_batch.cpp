@@ -24,30 +24,11 @@ struct BatchOptions {
     bool resume = false;
 };
 
-void run_batch_command(const BatchOptions& options, const GlobalOptions& global)
+// Runs this process's share of the job and, under mpirun, merges the shares.
+void run_share(const ProcessGroup& group, const BatchJob& job, const BatchOptions& options, const GlobalOptions& global)
 {
-    BatchJob job;
-    job.scenes = list_scenes(options.scenes);
-    job.params = load_params(options.params);
-    FoveationConfig fovea;
-    if (!options.fovea.empty()) {
-        std::vector<std::string> warnings;
-        fovea = read_foveation_config(options.fovea, FoveaPolicy::clamp, &warnings);
-        for (const auto& w : warnings) warn(w);
-        job.fovea = &fovea;
-    }
-    for (const std::string& file : options.models) {
-        // Without --params a cache brings its own model parameters.
-        BatchModel model{std::filesystem::path(file).stem().string(),
-                         load_model(file, job.params.model, !options.params.empty(), options.params)};
-        for (const BatchModel& other : job.models)
-            if (other.name == model.name)
-                throw CLI::ValidationError("--model", "two models named '" + model.name + "': records name models by file stem");
-        job.models.push_back(std::move(model));
-    }
     // Under mpirun every process runs every N-th scene into its own part; rank 0 merges the parts
     // in the scenes' order, so the output is the one a single process writes.
-    const ProcessGroup group;
     const bool shared = group.size() > 1;
     if (shared && !options.resume && std::filesystem::exists(options.output))
         throw Error(options.output, "exists: pass --resume to continue that batch, or remove the file");
@@ -85,6 +66,37 @@ void run_batch_command(const BatchOptions& options, const GlobalOptions& global)
             warn(std::to_string(summary.failed) + " of " + std::to_string(summary.recognised + summary.failed) +
                  " scenes failed: their error records are in " + options.output);
         set_exit_status(3);
+    }
+}
+
+void run_batch_command(const BatchOptions& options, const GlobalOptions& global)
+{
+    BatchJob job;
+    job.scenes = list_scenes(options.scenes);
+    job.params = load_params(options.params);
+    FoveationConfig fovea;
+    if (!options.fovea.empty()) {
+        std::vector<std::string> warnings;
+        fovea = read_foveation_config(options.fovea, FoveaPolicy::clamp, &warnings);
+        for (const auto& w : warnings) warn(w);
+        job.fovea = &fovea;
+    }
+    for (const std::string& file : options.models) {
+        // Without --params a cache brings its own model parameters.
+        BatchModel model{std::filesystem::path(file).stem().string(),
+                         load_model(file, job.params.model, !options.params.empty(), options.params)};
+        for (const BatchModel& other : job.models)
+            if (other.name == model.name)
+                throw CLI::ValidationError("--model", "two models named '" + model.name + "': records name models by file stem");
+        job.models.push_back(std::move(model));
+    }
+    const ProcessGroup group;
+    try {
+        run_share(group, job, options, global);
+    } catch (const std::exception& e) {
+        // Under mpirun the launch ends (MPI_Abort) as this unwinds, before main could say why.
+        if (group.launched()) std::cerr << "mfpc: rank " << group.rank() << ": " << e.what() << '\n';
+        throw;
     }
 }
 
