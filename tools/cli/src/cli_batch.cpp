@@ -81,15 +81,7 @@ void run_batch_command(const BatchOptions& options, const GlobalOptions& global)
         for (const auto& w : warnings) warn(w);
         job.fovea = &fovea;
     }
-    for (const std::string& file : options.models) {
-        // Without --params a cache brings its own model parameters.
-        BatchModel model{std::filesystem::path(file).stem().string(),
-                         load_model(file, job.params.model, !options.params.empty(), options.params)};
-        for (const BatchModel& other : job.models)
-            if (other.name == model.name)
-                throw CLI::ValidationError("--model", "two models named '" + model.name + "': records name models by file stem");
-        job.models.push_back(std::move(model));
-    }
+    job.models = load_batch_models(options.models, job.params, options.params);
     const ProcessGroup group;
     try {
         run_share(group, job, options, global);

@@ -10,6 +10,7 @@
 #include <tbb/global_control.h>
 
 #include "mfpc/core/detail/atomic_file.hpp"
+#include "mfpc/recognition/model.hpp"
 
 namespace mfpc::cli {
 
@@ -73,6 +74,22 @@ int command_exit_status = 0;
 RecognitionParams load_params(const std::string& path)
 {
     return path.empty() ? RecognitionParams{} : read_recognition_params(path);
+}
+
+std::vector<BatchModel> load_batch_models(const std::vector<std::string>& files, const RecognitionParams& params,
+                                          const std::string& params_file)
+{
+    std::vector<BatchModel> models;
+    for (const std::string& file : files) {
+        BatchModel model{std::filesystem::path(file).stem().string(),
+                         load_model(file, params.model, !params_file.empty(), params_file)};
+        for (const BatchModel& other : models)
+            if (other.name == model.name)
+                throw CLI::ValidationError("--model", "two models named '" + model.name +
+                                                          "': records name models by file stem");
+        models.push_back(std::move(model));
+    }
+    return models;
 }
 
 void set_exit_status(int status) { command_exit_status = status; }

@@ -10,6 +10,7 @@
 #include <utility>
 
 #include "mfpc/core/detail/text_format.hpp"
+#include "mfpc/batch/batch.hpp"
 #include "mfpc/recognition/params.hpp"
 
 namespace mfpc::cli {
@@ -42,6 +43,11 @@ void warn(const std::string& message);
 // The recognition parameters of --params PATH (the built-in set for none): `model` and
 // `recognize` read them the same way.
 RecognitionParams load_params(const std::string& path);
+
+// The models of --model for batch and scaling, named by file stem (records name them so): two
+// of one stem are a usage error. Without --params a cache brings its own model parameters.
+std::vector<BatchModel> load_batch_models(const std::vector<std::string>& files, const RecognitionParams& params,
+                                          const std::string& params_file);
 
 // The exit status of a command that finished but not wholly (batch: 3 when some scenes failed);
 // main returns it, 0 unless a command set it.

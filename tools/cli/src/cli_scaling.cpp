@@ -37,9 +37,7 @@ void run_scaling_command(const ScalingOptions& options, const GlobalOptions& glo
     BatchJob job;
     job.scenes = list_scenes(options.scenes);
     job.params = load_params(options.params);
-    for (const std::string& file : options.models)
-        job.models.push_back({std::filesystem::path(file).stem().string(),
-                              load_model(file, job.params.model, !options.params.empty(), options.params)});
+    job.models = load_batch_models(options.models, job.params, options.params);
     const std::filesystem::path directory(options.output);
     prepare_output_directory(directory);
     const std::vector<ScalingPoint> points = run_scaling(job, threads, directory, [&](int t) {
