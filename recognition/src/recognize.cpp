@@ -107,7 +107,17 @@ std::unique_ptr<DescribedScene> describe_scene(const PointCloud& scene, const Re
 
     auto t = Clock::now();
     std::optional<NeighborGrid> foveated_grid;
-    if (!full_normals && !resampled) foveated_grid.emplace(used->points, normal_grid_cell);
+    if (!full_normals && !resampled) {
+        // Cells of 3 voxels of the finest level, as describe_at_resolution sizes them: the k
+        // nearest of a cloud downsampled at d lie within a few d, and cells of normal_grid_cell
+        // made the search of a foveated room (d_m 5 mm, d_0 2 cm) read hundreds of cells a point.
+        float finest = 0;
+        for (const FoveatedStructure& structure : foveation.config->structures) {
+            const float d = structure.density(structure.levels);
+            if (d > 0) finest = finest > 0 ? std::min(finest, d) : d;
+        }
+        foveated_grid.emplace(used->points, finest > 0 ? 3.0f * finest : normal_grid_cell);
+    }
     feature_timings.normals_ms += elapsed_ms(t);
     if (!resampled) {
         d.features =
