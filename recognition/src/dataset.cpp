@@ -30,6 +30,7 @@ namespace {
 
 using detail::csv_field;
 using detail::format_fixed;
+using detail::group_digits;
 
 using nlohmann::json;
 using nlohmann::ordered_json;
@@ -147,14 +148,23 @@ void check_dataset_files(const Dataset& dataset)
 
 namespace {
 
+// How one scene runs: plain, with the manifest's fovea, or placed by a strategy (track carrying
+// its state along the scene's group).
+struct SceneRun {
+    bool fovea = false;
+    std::optional<PlacementStrategy> placement;
+    PlacementTrack* track = nullptr;
+    std::string name() const { return placement ? to_string(*placement) : fovea ? "fovea" : "plain"; }
+};
+
 // One scene run one way; every failure of this scene's own inputs becomes its outcome's error.
 SceneOutcome run_scene(const DatasetScene& scene, const Model* model, const std::string& model_error,
-                       const RecognitionParams& params, bool foveated, const DatasetOptions& options)
+                       const RecognitionParams& params, const SceneRun& run, const DatasetOptions& options)
 {
     SceneOutcome out;
     out.scene = scene.name;
     out.model = scene.model;
-    out.strategy = foveated ? "fovea" : "plain";
+    out.strategy = run.name();
     out.group = scene.group;
     out.negative = scene.ground_truth.empty();
     try {
@@ -165,13 +175,36 @@ SceneOutcome run_scene(const DatasetScene& scene, const Model* model, const std:
         for (const GroundTruthInstance& instance : truth.instances)
             out.truth.push_back({instance.object, instance.visible_fraction, false});
         FoveationConfig config;
-        if (foveated) config = read_foveation_config(scene.fovea);
+        if (run.fovea) config = read_foveation_config(scene.fovea);
         auto start = Clock::now();
         const PointCloud cloud = read_cloud(scene.cloud);
         out.read_ms = elapsed_ms(start);
         out.scene_points = cloud.size();
-        const SceneFoveation foveation{foveated ? &config : nullptr, FoveationMode::mfpc, 0};
-        const RecognitionResult result = recognize(*model, cloud, params, foveation);
+        bool nothing_placed = false;
+        if (run.placement) {
+            PlacementParams placement = options.placement;
+            placement.strategy = *run.placement;
+            std::vector<PlacedInstance> placed;
+            for (const GroundTruthInstance& instance : truth.instances) placed.push_back({0, instance.transform});
+            const Model* const models[] = {model};
+            PlacementResult result = place_foveae(cloud, models, params, placement, placed, run.track);
+            out.placement_ms = result.ms;
+            out.fallback = result.fallback;
+            config = std::move(result.config);
+            // The oracle knows there is nothing to find; the others fall back to the plain pipeline.
+            nothing_placed = config.structures.empty() && *run.placement == PlacementStrategy::oracle;
+            if (nothing_placed) out.fallback = "oracle: no instance to place a structure around, nothing described";
+        }
+        out.structures = config.structures.size();
+        const SceneFoveation foveation{config.structures.empty() ? nullptr : &config, FoveationMode::mfpc, 0};
+        RecognitionResult result;
+        if (!nothing_placed) result = recognize(*model, cloud, params, foveation);
+        if (run.track) {
+            std::vector<PlacedInstance> found;
+            for (const Instance& instance : result.instances) found.push_back({0, instance.transform});
+            const Model* const models[] = {model};
+            track_update(*run.track, models, found);
+        }
         out.peak_memory = peak_memory_bytes();
         out.instances = result.instances.size();
         out.evaluation = evaluate(result, *model, truth, options.evaluation);
@@ -179,8 +212,9 @@ SceneOutcome run_scene(const DatasetScene& scene, const Model* model, const std:
             if (match >= 0) out.truth.at(std::size_t(match)).found = true;
         out.scene_keypoints = result.counts.scene_keypoints;
         out.correspondences = result.counts.correspondences;
+        out.points_used = result.counts.scene_points_used;
         out.timings = result.timings;
-        out.scene_ms = result.timings.total;
+        out.scene_ms = out.placement_ms + result.timings.total;
     } catch (const std::bad_alloc&) {
         out.error = "out of memory";
     } catch (const std::exception& error) {
@@ -223,7 +257,19 @@ void add(DatasetTotals& totals, const SceneOutcome& scene, float min_visible)
     totals.possible_correspondences += e.possible_correspondences;
     totals.sensitivity_sum += e.correspondence_sensitivity * double(e.possible_correspondences);
     totals.scene_ms.push_back(scene.scene_ms);
+    totals.placement_ms.push_back(scene.placement_ms);
+    totals.structures += scene.structures;
+    totals.points_used += scene.points_used;
+    totals.fallbacks += !scene.fallback.empty();
     totals.peak_memory = std::max(totals.peak_memory, scene.peak_memory);
+}
+
+double median_of(std::vector<double> values)
+{
+    if (values.empty()) return 0.0;
+    std::sort(values.begin(), values.end());
+    const std::size_t n = values.size();
+    return n % 2 ? values[n / 2] : 0.5 * (values[n / 2 - 1] + values[n / 2]);
 }
 
 std::string recall_text(double recall) { return std::isnan(recall) ? "-" : format_fixed(recall, 3); }
@@ -248,6 +294,10 @@ ordered_json totals_json(const DatasetTotals& t)
             {"correspondence_precision", t.precision()},
             {"correspondence_sensitivity", t.sensitivity()},
             {"median_scene_ms", t.median_ms()},
+            {"median_placement_ms", t.median_placement_ms()},
+            {"structures", t.structures},
+            {"points_used", t.points_used},
+            {"fallbacks", t.fallbacks},
             {"peak_memory_bytes", t.peak_memory}};
 }
 
@@ -269,14 +319,9 @@ double DatasetTotals::recall_visible() const
     return visible == 0 ? std::numeric_limits<double>::quiet_NaN() : double(visible_found) / double(visible);
 }
 
-double DatasetTotals::median_ms() const
-{
-    if (scene_ms.empty()) return 0.0;
-    std::vector<double> sorted = scene_ms;
-    std::sort(sorted.begin(), sorted.end());
-    const std::size_t n = sorted.size();
-    return n % 2 ? sorted[n / 2] : 0.5 * (sorted[n / 2 - 1] + sorted[n / 2]);
-}
+double DatasetTotals::median_ms() const { return median_of(scene_ms); }
+
+double DatasetTotals::median_placement_ms() const { return median_of(placement_ms); }
 
 DatasetReport evaluate_dataset(const Dataset& dataset, const RecognitionParams& params, bool check_cache_params,
                                const std::string& params_source, const DatasetOptions& options,
@@ -286,6 +331,11 @@ DatasetReport evaluate_dataset(const Dataset& dataset, const RecognitionParams& 
     if (!(options.min_visible_fraction >= 0.0f && options.min_visible_fraction <= 1.0f))
         throw Error("evaluate", "the least visible fraction must lie in [0, 1], got " +
                                     format_number(options.min_visible_fraction));
+    check_placement_params(options.placement, "placement");
+    for (std::size_t i = 0; i < options.placements.size(); ++i)
+        for (std::size_t j = 0; j < i; ++j)
+            if (options.placements[i] == options.placements[j])
+                throw Error("placement", std::string("'") + to_string(options.placements[i]) + "' given twice");
     check_dataset_files(dataset);
     DatasetReport report;
     report.dataset = dataset.name;
@@ -321,15 +371,22 @@ DatasetReport evaluate_dataset(const Dataset& dataset, const RecognitionParams& 
     };
 
     std::size_t total = 0;
-    for (const DatasetScene& scene : dataset.scenes) total += options.plain + (options.foveated && !scene.fovea.empty());
+    for (const DatasetScene& scene : dataset.scenes)
+        total += options.plain + (options.foveated && !scene.fovea.empty()) + options.placements.size();
     std::size_t done = 0;
+    // track follows each group's scenes as the frames of one sequence (and a model's, when they differ).
+    std::map<std::pair<std::string, std::string>, PlacementTrack> tracks;
     for (const DatasetScene& scene : dataset.scenes) {
         const ModelOutcome& model = report.models[model_of(scene.model)];
         const std::optional<Model>& loaded = models[scene.model];
-        for (const bool foveated : {false, true}) {
-            if (foveated ? !(options.foveated && !scene.fovea.empty()) : !options.plain) continue;
-            report.scenes.push_back(
-                run_scene(scene, loaded ? &*loaded : nullptr, model.error, params, foveated, options));
+        std::vector<SceneRun> runs;
+        if (options.plain) runs.push_back({});
+        if (options.foveated && !scene.fovea.empty()) runs.push_back({true, std::nullopt, nullptr});
+        for (const PlacementStrategy strategy : options.placements)
+            runs.push_back({false, strategy,
+                            strategy == PlacementStrategy::track ? &tracks[{scene.group, scene.model}] : nullptr});
+        for (const SceneRun& run : runs) {
+            report.scenes.push_back(run_scene(scene, loaded ? &*loaded : nullptr, model.error, params, run, options));
             if (progress) progress(++done, total, scene.name);
         }
     }
@@ -340,7 +397,11 @@ std::vector<DatasetTally> tally(const DatasetReport& report)
 {
     std::vector<DatasetTally> rows;
     const float min_visible = report.options.min_visible_fraction;
-    for (const char* strategy : {"plain", "fovea"}) {
+    std::vector<std::string> strategies;
+    for (const SceneOutcome& scene : report.scenes)
+        if (std::find(strategies.begin(), strategies.end(), scene.strategy) == strategies.end())
+            strategies.push_back(scene.strategy);
+    for (const std::string& strategy : strategies) {
         DatasetTally all{strategy, "all", "", {}};
         std::map<std::string, DatasetTotals> groups;
         std::map<std::string, DatasetTotals> objects;
@@ -403,6 +464,10 @@ std::string to_json(const DatasetReport& report)
                          {"correspondence_sensitivity", e.correspondence_sensitivity},
                          {"read_ms", s.read_ms},
                          {"scene_ms", s.scene_ms},
+                         {"placement_ms", s.placement_ms},
+                         {"structures", s.structures},
+                         {"points_used", s.points_used},
+                         {"fallback", s.fallback.empty() ? ordered_json(nullptr) : ordered_json(s.fallback)},
                          {"timings_ms",
                           {{"foveate", s.timings.foveate},
                            {"normals", s.timings.normals},
@@ -430,6 +495,8 @@ std::string to_json(const DatasetReport& report)
         {"params_source", report.params_source},
         {"params", ordered_json::parse(to_json(report.params))},
         {"min_visible_fraction", shortest_double(report.options.min_visible_fraction)},
+        {"placement", report.options.placements.empty() ? ordered_json(nullptr)
+                                                        : ordered_json::parse(to_json(report.options.placement))},
         {"tolerances",
          {{"correspondence_m", shortest_double(tolerances.correspondence_tolerance)},
           {"instance_m", shortest_double(tolerances.instance_translation)},
@@ -445,7 +512,7 @@ std::string to_csv(const DatasetReport& report)
     std::ostringstream out;
     out << "scene,model,strategy,group,negative,error,instances,true,false,missed,truth,visible,visible_found,"
            "scene_points,scene_keypoints,correspondences,correct_correspondences,possible_correspondences,"
-           "precision,sensitivity,read_ms,scene_ms,peak_memory_bytes\n";
+           "precision,sensitivity,read_ms,scene_ms,peak_memory_bytes,placement_ms,structures,points_used,fallback\n";
     for (const SceneOutcome& s : report.scenes) {
         std::size_t visible = 0, visible_found = 0;
         for (const TruthOutcome& t : s.truth) {
@@ -457,7 +524,7 @@ std::string to_csv(const DatasetReport& report)
         out << csv_field(s.scene) << ',' << csv_field(s.model) << ',' << s.strategy << ',' << csv_field(s.group) << ','
             << (s.negative ? "true" : "false") << ',' << csv_field(s.error) << ',';
         if (!s.error.empty()) {
-            out << std::string(16, ',') << '\n';
+            out << std::string(20, ',') << '\n';
             continue;
         }
         out << s.instances << ',' << e.instances_true << ',' << e.instances_false << ',' << e.instances_missed << ','
@@ -465,7 +532,8 @@ std::string to_csv(const DatasetReport& report)
             << s.scene_keypoints << ',' << s.correspondences << ',' << e.correct_correspondences << ','
             << e.possible_correspondences << ',' << format_fixed(e.correspondence_precision, 4) << ','
             << format_fixed(e.correspondence_sensitivity, 4) << ',' << format_fixed(s.read_ms, 2) << ',' << format_fixed(s.scene_ms, 2)
-            << ',' << s.peak_memory << '\n';
+            << ',' << s.peak_memory << ',' << format_fixed(s.placement_ms, 2) << ',' << s.structures << ','
+            << s.points_used << ',' << csv_field(s.fallback) << '\n';
     }
     return out.str();
 }
@@ -474,44 +542,50 @@ std::string to_table(const DatasetReport& report)
 {
     std::ostringstream out;
     char line[512];
-    std::snprintf(line, sizeof line, "%-28s %-6s %5s %5s %6s %9s %9s %8s %8s  %s\n", "scene", "run", "true", "false",
+    std::snprintf(line, sizeof line, "%-28s %-8s %5s %5s %6s %9s %9s %8s %8s  %s\n", "scene", "run", "true", "false",
                   "missed", "precision", "sensitiv.", "ms", "peak MB", "note");
     out << line;
     for (const SceneOutcome& s : report.scenes) {
         if (!s.error.empty()) {
-            std::snprintf(line, sizeof line, "%-28s %-6s %5s %5s %6s %9s %9s %8s %8s  ", s.scene.c_str(),
+            std::snprintf(line, sizeof line, "%-28s %-8s %5s %5s %6s %9s %9s %8s %8s  ", s.scene.c_str(),
                           s.strategy.c_str(), "-", "-", "-", "-", "-", "-", "-");
             out << line << "error: " << s.error << '\n';
             continue;
         }
         const Evaluation& e = s.evaluation;
-        std::snprintf(line, sizeof line, "%-28s %-6s %5zu %5zu %6zu %9.3f %9.3f %8.1f %8s  %s\n", s.scene.c_str(),
+        std::string note = s.negative ? "negative" : "";
+        if (!s.fallback.empty()) note += (note.empty() ? "" : "; ") + s.fallback;
+        std::snprintf(line, sizeof line, "%-28s %-8s %5zu %5zu %6zu %9.3f %9.3f %8.1f %8s  ", s.scene.c_str(),
                       s.strategy.c_str(), e.instances_true, e.instances_false, e.instances_missed,
                       e.correspondence_precision, e.correspondence_sensitivity, s.scene_ms,
-                      mebibytes(s.peak_memory).c_str(), s.negative ? "negative" : "");
-        out << line;
+                      mebibytes(s.peak_memory).c_str());
+        out << line << note << '\n';
     }
     out << '\n';
-    std::snprintf(line, sizeof line, "%-6s %-22s %6s %6s %5s %5s %6s %7s %9s %9s %10s %8s\n", "run", "totals", "scenes",
-                  "failed", "true", "false", "missed", "recall*", "precision", "sensitiv.", "median ms", "peak MB");
+    std::snprintf(line, sizeof line, "%-8s %-22s %6s %6s %5s %5s %6s %7s %9s %9s %10s %9s %10s %8s\n", "run", "totals",
+                  "scenes", "failed", "true", "false", "missed", "recall*", "precision", "sensitiv.", "median ms",
+                  "place ms", "points", "peak MB");
     out << line;
     for (const DatasetTally& t : tally(report)) {
         const DatasetTotals& x = t.totals;
         const std::string label = t.kind == "all" ? "all" : t.kind + " " + t.key;
         if (t.kind == "object") {
-            std::snprintf(line, sizeof line, "%-6s %-22s %6s %6s %5zu %5s %6zu %7s\n", t.strategy.c_str(),
+            std::snprintf(line, sizeof line, "%-8s %-22s %6s %6s %5zu %5s %6zu %7s\n", t.strategy.c_str(),
                           label.c_str(), "", "", x.instances_true, "", x.instances_missed,
                           recall_text(x.recall_visible()).c_str());
         } else {
-            std::snprintf(line, sizeof line, "%-6s %-22s %6zu %6zu %5zu %5zu %6zu %7s %9.3f %9.3f %10.1f %8s\n",
+            std::snprintf(line, sizeof line,
+                          "%-8s %-22s %6zu %6zu %5zu %5zu %6zu %7s %9.3f %9.3f %10.1f %9.1f %10s %8s\n",
                           t.strategy.c_str(), label.c_str(), x.scenes, x.failed, x.instances_true, x.instances_false,
-                          x.instances_missed, recall_text(x.recall_visible()).c_str(), x.precision(), x.sensitivity(), x.median_ms(),
+                          x.instances_missed, recall_text(x.recall_visible()).c_str(), x.precision(), x.sensitivity(),
+                          x.median_ms(), x.median_placement_ms(), group_digits(x.points_used).c_str(),
                           mebibytes(x.peak_memory).c_str());
         }
         out << line;
     }
     out << "* recall of the instances with at least " << format_fixed(report.options.min_visible_fraction * 100.0, 0)
-        << "% of their surface visible (all of them where the ground truth does not say)\n";
+        << "% of their surface visible (all of them where the ground truth does not say); median ms includes "
+           "placement; points: described, summed\n";
     return out.str();
 }
 

@@ -96,6 +96,7 @@ std::string to_json(const RecognitionReport& report)
         {"threads", report.threads},
         {"params", params_json(report)},
         {"warnings", report.warnings},
+        {"placement", report.placement ? ordered_json::parse(to_json(*report.placement)) : ordered_json(nullptr)},
     };
     if (evaluation) {
         json["evaluation"] = {{"ground_truth", report.ground_truth_file},
@@ -141,16 +142,19 @@ std::string to_table(const RecognitionReport& report)
     const std::optional<Evaluation>& evaluation = report.evaluation;
     const RecognitionCounts& c = result.counts;
     const RecognitionTimings& t = result.timings;
-    const std::vector<std::pair<std::string, std::string>> rows = {
+    std::vector<std::pair<std::string, std::string>> rows = {
         {"model", report.model_file + (report.model_cached ? " (cached)" : "")},
         {"scene", report.scene_file},
         {"mode", to_string(report.mode)},
+    };
+    if (report.placement) rows.push_back({"placement", summary(*report.placement)});
+    rows.insert(rows.end(), {
         {"scene points", group_digits(c.scene_points) + " finite, " + group_digits(c.scene_points_used) + " used"},
         {"keypoints", group_digits(c.scene_keypoints) + " scene (" + group_digits(c.scene_keypoints_invalid) +
                           " invalid), " + group_digits(c.model_keypoints) + " model"},
         {"correspondences", group_digits(c.correspondences)},
         {"instances", group_digits(result.instances.size()) + " (" + group_digits(c.instances_before_verification) +
-                          " before verification)"}};
+                          " before verification)"}});
     std::string out = detail::key_value_rows(rows);
     if (!result.instances.empty()) {
         out += "\n  #  position (m)                 votes  corrs  fitness  free-space";

@@ -1,6 +1,7 @@
 #include "cli_common.hpp"
 
 #include <filesystem>
+#include <fstream>
 #include <iostream>
 #include <sstream>
 
@@ -128,5 +129,44 @@ std::pair<std::uint32_t, std::uint32_t> parse_size(const std::string& text, cons
 }
 
 void print_rows(const std::vector<std::pair<std::string, std::string>>& rows) { std::cout << detail::key_value_rows(rows); }
+
+void add_placement_options(CLI::App* command, PlacementOptions& options, const std::string& fovea_option)
+{
+    command->add_option("--placement", options.strategy,
+                        "With " + fovea_option + " auto: how the structures are placed: segments (default: supporting "
+                        "planes removed, one structure per object-sized cluster), coarse (hypotheses of a cheap "
+                        "recognition pass), grid (the paper's uniform distribution), track (as segments for one "
+                        "cloud), oracle (from --ground-truth)")
+        ->check(CLI::IsMember({"segments", "coarse", "grid", "track", "oracle"}));
+    command->add_option("--write-fovea", options.write_fovea,
+                        "With " + fovea_option + " auto: write the placed foveation config here, to reproduce the "
+                        "run or draw it with `mfpc render`")
+        ->type_name("FOVEA.json");
+}
+
+void check_placement_options(const PlacementOptions& options, bool automatic, const std::string& fovea_option)
+{
+    if (automatic) return;
+    if (options.strategy != "segments") throw CLI::ValidationError("--placement", "needs " + fovea_option + " auto");
+    if (!options.write_fovea.empty()) throw CLI::ValidationError("--write-fovea", "needs " + fovea_option + " auto");
+}
+
+PlacementResult place_for_command(const PointCloud& scene, std::span<const Model* const> models,
+                                  const RecognitionParams& params, const PlacementOptions& options,
+                                  std::span<const PlacedInstance> truth)
+{
+    PlacementParams placement;
+    placement.strategy = parse_placement_strategy(options.strategy, "--placement");
+    PlacementTrack track;
+    PlacementResult result = place_foveae(scene, models, params, placement, truth,
+                                          placement.strategy == PlacementStrategy::track ? &track : nullptr);
+    if (!result.fallback.empty()) {
+        warn(result.fallback + (options.write_fovea.empty() ? "" : "; nothing written to " + options.write_fovea));
+    } else if (!options.write_fovea.empty()) {
+        const std::string text = to_json(result.config);
+        write_file_atomically(options.write_fovea, [&](std::ofstream& out) { out << text; });
+    }
+    return result;
+}
 
 }  // namespace mfpc::cli

@@ -12,6 +12,11 @@
 #include "mfpc/core/detail/text_format.hpp"
 #include "mfpc/batch/batch.hpp"
 #include "mfpc/recognition/params.hpp"
+#include "mfpc/recognition/placement.hpp"
+
+namespace CLI {
+class App;
+}
 
 namespace mfpc::cli {
 
@@ -64,6 +69,25 @@ bool truth_is_of(const std::string& truth_model, const std::string& model_file);
 
 void warn_if_truth_of_another_model(const std::string& truth_model, const std::string& model_file,
                                     const std::string& truth_file);
+
+// --placement and --write-fovea, which go with `--fovea auto` (or `--config auto`).
+struct PlacementOptions {
+    std::string strategy = "segments";
+    std::string write_fovea;
+};
+void add_placement_options(CLI::App* command, PlacementOptions& options, const std::string& fovea_option);
+
+// Whether a fovea option asks for automatic placement.
+inline bool is_auto_fovea(const std::string& value) { return value == "auto"; }
+
+// Refuses --placement / --write-fovea given without `fovea_option auto`, before any work.
+void check_placement_options(const PlacementOptions& options, bool automatic, const std::string& fovea_option);
+
+// Automatic placement for a command: places, warns a fallback, writes --write-fovea (atomically;
+// nothing when nothing was placed, which the warning says).
+PlacementResult place_for_command(const PointCloud& scene, std::span<const Model* const> models,
+                                  const RecognitionParams& params, const PlacementOptions& options,
+                                  std::span<const PlacedInstance> truth = {});
 
 using detail::format_fixed;
 using detail::group_digits;

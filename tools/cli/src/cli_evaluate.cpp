@@ -8,6 +8,7 @@
 #include "mfpc/core/detail/atomic_file.hpp"
 #include "mfpc/recognition/dataset.hpp"
 #include "mfpc/recognition/params.hpp"
+#include "mfpc/recognition/placement.hpp"
 
 namespace mfpc::cli {
 namespace {
@@ -19,6 +20,7 @@ struct EvaluateOptions {
     std::string runs = "both";
     float min_visible = 0.5f;
     std::string csv;
+    std::string placements;
 };
 
 void run_evaluate(const EvaluateOptions& options, const GlobalOptions& global)
@@ -29,6 +31,8 @@ void run_evaluate(const EvaluateOptions& options, const GlobalOptions& global)
     run.plain = options.runs != "fovea";
     run.foveated = options.runs != "plain";
     run.min_visible_fraction = options.min_visible;
+    for (const std::string& name : split_list(options.placements))
+        run.placements.push_back(parse_placement_strategy(name, "--placement"));
     Progress bar;
     const DatasetReport report =
         evaluate_dataset(dataset, params, !options.params.empty(), options.params, run,
@@ -69,6 +73,11 @@ void add_evaluate_command(CLI::App& app, const GlobalOptions& global)
                         "Recall is reported for the instances with at least this share of their surface visible "
                         "(default 0.5)")
         ->check(CLI::Range(0.0f, 1.0f));
+    command->add_option("--placement", options->placements,
+                        "Also run every scene foveated by these automatic placements, comma-separated: segments, "
+                        "coarse, grid, track (the scenes of a group as the frames of a sequence), oracle (from the "
+                        "ground truth: what placement would give knowing where the objects are)")
+        ->type_name("LIST");
     command->add_option("--csv", options->csv, "Also write one CSV row per scene run")->type_name("PATH");
     command->callback([options, &global] { run_evaluate(*options, global); });
 }

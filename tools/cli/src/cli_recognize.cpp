@@ -12,6 +12,7 @@
 #include "mfpc/recognition/ground_truth.hpp"
 #include "mfpc/recognition/model.hpp"
 #include "mfpc/recognition/params.hpp"
+#include "mfpc/recognition/placement.hpp"
 #include "mfpc/recognition/recognition_report.hpp"
 #include "mfpc/recognition/recognize.hpp"
 
@@ -27,6 +28,7 @@ struct RecognizeOptions {
     bool strict = false;
     std::string params;
     std::string ground_truth;
+    PlacementOptions placement;
 };
 
 void run_recognize(const RecognizeOptions& options, const GlobalOptions& global)
@@ -34,6 +36,11 @@ void run_recognize(const RecognizeOptions& options, const GlobalOptions& global)
     if (!options.mode.empty() && options.fovea.empty() && options.mode != "none")
         throw CLI::ValidationError("--mode", "needs --fovea");
     if (options.strict && options.fovea.empty()) throw CLI::ValidationError("--strict", "needs --fovea");
+    const bool automatic = is_auto_fovea(options.fovea);
+    check_placement_options(options.placement, automatic, "--fovea");
+    if (automatic && options.strict) throw CLI::ValidationError("--strict", "does not apply to --fovea auto");
+    if (automatic && options.placement.strategy == "oracle" && options.ground_truth.empty())
+        throw CLI::ValidationError("--placement oracle", "needs --ground-truth");
     const FoveationMode mode = parse_foveation_mode(options.mode.empty() ? (options.fovea.empty() ? "none" : "mfpc")
                                                                          : options.mode,
                                                     "--mode");
@@ -42,12 +49,12 @@ void run_recognize(const RecognizeOptions& options, const GlobalOptions& global)
     RecognitionParams params = load_params(options.params);
     std::vector<std::string> warnings;
     FoveationConfig config;
-    if (!options.fovea.empty())
+    if (!options.fovea.empty() && !automatic)
         config = read_foveation_config(options.fovea, options.strict ? FoveaPolicy::strict : FoveaPolicy::clamp,
                                        &warnings);
     for (const auto& w : warnings) warn(w);
     int single_structure = std::max(options.structure, 0);
-    if (mode == FoveationMode::single) {
+    if (mode == FoveationMode::single && !automatic) {
         if (options.structure < 0 && config.structures.size() > 1)
             throw CLI::ValidationError("--mode single", "the config has " + std::to_string(config.structures.size()) +
                                                             " structures; choose one with --structure J");
@@ -81,13 +88,29 @@ void run_recognize(const RecognizeOptions& options, const GlobalOptions& global)
     const PointCloud scene = read_cloud(options.scene);
     const double read_ms = clock.lap_ms();
 
-    const SceneFoveation foveation{options.fovea.empty() ? nullptr : &config, mode, single_structure};
+    std::vector<const Model*> pointers;
+    for (const Model& model : models) pointers.push_back(&model);
+    std::optional<PlacementResult> placement;
+    if (automatic) {
+        // The oracle places around the ground truth's instances: those of the first model.
+        std::vector<PlacedInstance> truth_instances;
+        if (truth)
+            for (const GroundTruthInstance& instance : truth->instances) truth_instances.push_back({0, instance.transform});
+        placement = place_for_command(scene, pointers, params, options.placement, truth_instances);
+        config = placement->config;
+        if (!placement->fallback.empty()) warnings.push_back(placement->fallback);
+        if (mode == FoveationMode::single && single_structure >= int(config.structures.size()) && !config.structures.empty())
+            throw CLI::ValidationError("--structure", "structure " + std::to_string(single_structure) +
+                                                          " does not exist: placement made " +
+                                                          std::to_string(config.structures.size()));
+    }
+    // A placement that placed nothing runs the plain pipeline, as its warning says.
+    const bool foveated = !options.fovea.empty() && !config.structures.empty();
+    const SceneFoveation foveation{foveated ? &config : nullptr, foveated ? mode : FoveationMode::none, single_structure};
     RecognitionTimings scene_timings;
     if (models.size() == 1) {
         reports[0].result = recognize(models[0], scene, params, foveation);
     } else {
-        std::vector<const Model*> pointers;
-        for (const Model& model : models) pointers.push_back(&model);
         std::vector<RecognitionResult> results = recognize_models(pointers, scene, params, foveation, &scene_timings);
         for (std::size_t m = 0; m < models.size(); ++m) reports[m].result = std::move(results[m]);
     }
@@ -106,6 +129,8 @@ void run_recognize(const RecognizeOptions& options, const GlobalOptions& global)
         report.model_params = models[m].params;
         report.threads = active_threads();
         report.warnings = warnings;
+        report.placement = placement;
+        report.mode = foveation.mode;
         if (print_table(global)) std::cout << (m ? "\n" : "") << to_table(report);
     }
     write_json(global, models.size() == 1 ? to_json(reports[0]) : to_json(std::span<const RecognitionReport>(reports), scene_timings));
@@ -125,8 +150,10 @@ void add_recognize_command(CLI::App& app, const GlobalOptions& global)
         ->type_name("MODEL")
         ->required();
     command->add_option("--scene", options->scene, "Scene cloud (.pcd or .ply)")->type_name("SCENE")->required();
-    command->add_option("--fovea", options->fovea, "Foveation config (JSON): foveate the scene first")
-        ->type_name("FOVEA.json");
+    command->add_option("--fovea", options->fovea,
+                        "Foveation config (JSON): foveate the scene first; `auto` places the structures from the "
+                        "scene and the models (see --placement)")
+        ->type_name("FOVEA.json|auto");
     command->add_option("-m,--mode", options->mode, "Foveation mode (default: mfpc with --fovea, none without)")
         ->check(CLI::IsMember({"none", "single", "raw", "mfpc"}));
     command->add_option("--structure", options->structure, "Structure (0-based) to use with --mode single")
@@ -137,6 +164,7 @@ void add_recognize_command(CLI::App& app, const GlobalOptions& global)
         ->type_name("PARAMS.json");
     command->add_option("--ground-truth", options->ground_truth, "Score the result against this ground truth")
         ->type_name("GT.json");
+    add_placement_options(command, options->placement, "--fovea");
     command->callback([options, &global] { run_recognize(*options, global); });
 }
 

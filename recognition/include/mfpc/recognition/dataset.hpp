@@ -12,6 +12,7 @@
 
 #include "mfpc/recognition/evaluation.hpp"
 #include "mfpc/recognition/params.hpp"
+#include "mfpc/recognition/placement.hpp"
 
 namespace mfpc {
 
@@ -65,6 +66,11 @@ void check_dataset_files(const Dataset& dataset);
 struct DatasetOptions {
     bool plain = true;     ///< Every scene without foveation.
     bool foveated = true;  ///< Every scene that has a fovea config, foveated (mode mfpc).
+    /// Every scene also foveated by each of these automatic placements (a run named after the
+    /// strategy; track follows the scenes of one group in the set's order, as frames). oracle
+    /// places from the ground truth: a negative scene gets no structure and nothing is found.
+    std::vector<PlacementStrategy> placements;
+    PlacementParams placement;  ///< The placements' parameters (each run sets its own strategy).
     /// Ground-truth instances seen less than this (GroundTruthInstance::visible_fraction) are
     /// tallied apart: a recall goal is for the objects a sensor could be expected to recognise.
     float min_visible_fraction = 0.5f;
@@ -82,7 +88,7 @@ struct TruthOutcome {
 struct SceneOutcome {
     std::string scene;     ///< The scene's name.
     std::string model;     ///< The name of the model looked for.
-    std::string strategy;  ///< "plain" or "fovea".
+    std::string strategy;  ///< "plain", "fovea" (the manifest's config) or a placement strategy's name.
     std::string group;     ///< The scene's group (empty when none).
     bool negative = false;  ///< A scene without ground truth: nothing may be found.
     std::string error;     ///< Why the scene could not be read or recognised; empty when it ran.
@@ -93,7 +99,11 @@ struct SceneOutcome {
     std::size_t scene_keypoints = 0;  ///< Scene keypoints described (valid frame and descriptor).
     std::size_t correspondences = 0;  ///< Correspondences matching found.
     double read_ms = 0;   ///< Reading the scene cloud.
-    double scene_ms = 0;  ///< The scene pipeline (RecognitionTimings::total), reading aside.
+    double scene_ms = 0;  ///< Placement (when placed) and the scene pipeline (RecognitionTimings::total), reading aside.
+    double placement_ms = 0;      ///< Automatic placement (0 for plain and fovea runs).
+    std::size_t structures = 0;   ///< Structures foveated with (0 plain, or a placement's fallback).
+    std::size_t points_used = 0;  ///< Points described (RecognitionCounts::scene_points_used).
+    std::string fallback;         ///< A placement's fallback (PlacementResult::fallback), else empty.
     RecognitionTimings timings;  ///< The scene pipeline's stages.
     std::size_t peak_memory = 0;  ///< Bytes: the process's peak while the scene was read and recognised.
     bool peak_memory_reset = false;  ///< False: the system could not reset the mark; the peak is the process's so far.
@@ -142,6 +152,10 @@ struct DatasetTotals {
     std::size_t correspondences = 0, correct_correspondences = 0, possible_correspondences = 0;
     double sensitivity_sum = 0;         ///< Sensitivity weighted by possible correspondences.
     std::vector<double> scene_ms;       ///< Per scene that ran.
+    std::vector<double> placement_ms;   ///< Per scene that ran (0 for plain and fovea runs).
+    std::size_t structures = 0;         ///< Structures, summed over the scenes that ran.
+    std::size_t points_used = 0;        ///< Points described, summed over the scenes that ran.
+    std::size_t fallbacks = 0;          ///< Scenes where placement placed nothing (run plain).
     std::size_t peak_memory = 0;        ///< The largest scene's.
     /// @brief Correspondence precision, pooled.
     /// @return Correct / all correspondences; 0 without correspondences.
@@ -155,11 +169,14 @@ struct DatasetTotals {
     /// @brief The median scene time.
     /// @return The median of scene_ms (milliseconds); 0 when no scene ran.
     double median_ms() const;
+    /// @brief The median placement time.
+    /// @return The median of placement_ms (milliseconds); 0 when no scene ran.
+    double median_placement_ms() const;
 };
 
 /// @brief A tally row: totals of one strategy, over all scenes ("all") or one group or one shape.
 struct DatasetTally {
-    std::string strategy;  ///< "plain" or "fovea".
+    std::string strategy;  ///< "plain", "fovea" or a placement strategy's name.
     /// "all", "group" or "object". An "object" row holds only the ground-truth counts (truth,
     /// instances_true, instances_missed, visible, visible_found): scene-wide counts do not split by
     /// shape.
@@ -176,13 +193,15 @@ struct DatasetReport {
     DatasetOptions options;     ///< What ran and how it was scored.
     int threads = 1;            ///< Worker threads of the run.
     std::vector<ModelOutcome> models;  ///< One per model loaded, in the order first needed.
-    std::vector<SceneOutcome> scenes;  ///< One per scene run, in the set's order (each scene plain, then foveated).
+    /// One per scene run, in the set's order (each scene plain, then foveated, then per placement).
+    std::vector<SceneOutcome> scenes;
 };
 
 /// @brief Called after each scene run with the runs done, the runs in all, and the scene's name.
 using DatasetProgress = std::function<void(std::size_t done, std::size_t total, const std::string& scene)>;
 
-/// @brief Runs every scene of the set (plain and, where it has a fovea, foveated) with `params`
+/// @brief Runs every scene of the set (plain, foveated where it has a fovea, and with each of
+/// options.placements) with `params`
 /// and scores it. Each model is loaded once (a cache made with other model parameters is an error
 /// when `check_cache_params`, as in `recognize`). A missing file stops the run before it starts
 /// (check_dataset_files); a scene whose files exist but fail to read, that fails to recognise, or
@@ -195,7 +214,8 @@ using DatasetProgress = std::function<void(std::size_t done, std::size_t total, 
 /// @param options What runs and how it is scored.
 /// @param progress When given, called after each scene run.
 /// @return The report: one outcome per model loaded and per scene run.
-/// @throws mfpc::Error for parameters check_recognition_params refuses, a min_visible_fraction
+/// @throws mfpc::Error for parameters check_recognition_params (or check_placement_params)
+/// refuses, a min_visible_fraction
 /// outside [0, 1], a missing file (as check_dataset_files), or a scene naming a model the set
 /// lacks.
 DatasetReport evaluate_dataset(const Dataset& dataset, const RecognitionParams& params, bool check_cache_params,
@@ -204,7 +224,7 @@ DatasetReport evaluate_dataset(const Dataset& dataset, const RecognitionParams& 
 
 /// @brief The tallies: per strategy over all scenes, then per group and per object shape.
 /// @param report The report.
-/// @return Per strategy that ran a scene ("plain", then "fovea"): its "all" row, then one row per
+/// @return Per strategy that ran a scene (in the order they first ran): its "all" row, then one row per
 /// group and one per object shape (the ground truth's object name, else the scene's model), each in
 /// name order.
 std::vector<DatasetTally> tally(const DatasetReport& report);

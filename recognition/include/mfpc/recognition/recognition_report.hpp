@@ -14,6 +14,7 @@
 #include "mfpc/recognition/evaluation.hpp"
 #include "mfpc/recognition/features.hpp"
 #include "mfpc/recognition/params.hpp"
+#include "mfpc/recognition/placement.hpp"
 #include "mfpc/recognition/recognize.hpp"
 
 namespace mfpc {
@@ -37,6 +38,8 @@ struct RecognitionReport {
     EvaluationParams evaluation_params; ///< The tolerances `evaluation` was scored with.
     int threads = 1;                    ///< Worker threads of the run.
     std::vector<std::string> warnings;  ///< Warnings the run gave (clamped foveae, ...).
+    /// The automatic placement the scene was foveated by (`--fovea auto`); absent otherwise.
+    std::optional<PlacementResult> placement;
 };
 
 /// @brief The report as JSON text (key names in the README, "mfpc recognize"): per instance its
