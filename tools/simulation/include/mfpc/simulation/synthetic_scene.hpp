@@ -86,6 +86,12 @@ struct ComposeParams {
 /// be placed without overlap.
 SyntheticScene compose_scene(std::vector<SceneShape> shapes, const ComposeParams& params);
 
+/// @brief The point compose_scene's camera looks at: the mean of the objects' positions on the
+/// table, 8 cm above it (mid-height of a typical object).
+/// @param scene The scene.
+/// @return The point, in the world frame; the origin 8 cm up for a scene without objects.
+Eigen::Vector3f objects_centre(const SyntheticScene& scene);
+
 /// @brief The axis-aligned box, in the camera frame, of object `index` as placed in the scene.
 /// @param scene The scene.
 /// @param index The object.
@@ -151,6 +157,17 @@ SyntheticDataset make_synthetic_dataset(std::vector<SceneShape> shapes, const Co
                                         const FeatureParams& features = RecognitionParams{}.model,
                                         bool describe_model = true);
 
+/// @brief The scan of a scene as make_synthetic_dataset takes it: checks that the camera reaches
+/// the objects, scans (seed keys the sensor noise) and places one fovea per instance. The models
+/// are left empty, visible_fraction too.
+/// @param scene The scene.
+/// @param sensor The sensor.
+/// @param seed Keys the sensor noise; also the dataset's seed.
+/// @return The dataset of the scan.
+/// @throws mfpc::Error for a sensor check_sensor refuses, when the objects all lie beyond the
+/// sensor's max_range, or as the scan.
+SyntheticDataset scan_synthetic_scene(SyntheticScene scene, const SensorParams& sensor, std::uint32_t seed);
+
 /// @brief The views a dataset's model is described from: the scene sensor's noise model at VGA,
 /// 1 m away. They keep its noise, baseline, disparity quantization and incidence limit, but not its
 /// resolution, focal length or range (their 1 m distance lies in the default range whatever the
@@ -174,10 +191,31 @@ std::vector<float> visible_fraction_of(const SyntheticScene& scene, const Scan& 
 
 /// @brief Writes the files above (those SyntheticDataset lists, each atomically) into `directory`,
 /// created if missing; the model cache only when the dataset's model was described.
+/// write_synthetic_models, then write_synthetic_scene_files.
 /// @param directory The directory.
 /// @param dataset The dataset.
 /// @throws mfpc::Error when the directory cannot be created or a file cannot be written.
 void write_synthetic_dataset(const std::filesystem::path& directory, const SyntheticDataset& dataset);
+/// @brief Writes the models of a dataset (each atomically) into `directory`, created if missing:
+/// `<shape>.pcd` per shape (dataset.models; a shape named like a scene file gets `_model`
+/// appended, a second shape of one name `_<index>`) and, when its model was described,
+/// `<object>.mfpcm`. Only dataset.scene's shapes, dataset.models and dataset.model are read.
+/// @param directory The directory.
+/// @param dataset The dataset.
+/// @throws mfpc::Error when the directory cannot be created, a file cannot be written, or the
+/// dataset has fewer model clouds than shapes.
+void write_synthetic_models(const std::filesystem::path& directory, const SyntheticDataset& dataset);
+/// @brief Writes the files of a dataset's scan (each atomically) into `directory`, created if
+/// missing: scene.pcd, labels.png, scene.gt.json, scene.json and, with instances, fovea.json and
+/// fovea_all.json; not the models (dataset.models and dataset.model are not read).
+/// @param directory The directory.
+/// @param dataset The dataset.
+/// @param model_directory Where the models lie, relative to `directory` (".." for the frames of a
+/// sequence, whose models are written once above them): the model files of scene.gt.json and
+/// scene.json are named through it. Empty: beside the scene, as write_synthetic_dataset writes them.
+/// @throws mfpc::Error when the directory cannot be created or a file cannot be written.
+void write_synthetic_scene_files(const std::filesystem::path& directory, const SyntheticDataset& dataset,
+                                 const std::filesystem::path& model_directory = {});
 
 /// @brief Creates `directory` if missing, so a command can refuse a bad output before long work.
 /// @param directory The directory.
