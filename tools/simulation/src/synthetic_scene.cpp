@@ -517,6 +517,10 @@ void write_synthetic_scene_files(const std::filesystem::path& directory, const S
         {"plane_half_size", {scene.plane_half_size.x(), scene.plane_half_size.y()}},
         {"points", scan.cloud.size()},
         {"objects", objects}};
+    if (dataset.frame)
+        manifest["frame"] = {{"index", dataset.frame->index},
+                             {"noise_seed", dataset.frame->noise_seed},
+                             {"heading_deg", dataset.frame->heading_deg}};
     write_json_file(directory / "scene.json", manifest);
     // A scene without instances has no fovea to place, and a config needs one structure.
     if (!dataset.fovea.structures.empty()) {

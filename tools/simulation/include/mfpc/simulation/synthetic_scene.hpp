@@ -6,6 +6,7 @@
 
 #include <cstdint>
 #include <filesystem>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -111,6 +112,15 @@ FoveationConfig fovea_per_instance(const SyntheticScene& scene);
 /// @return The config; without structures for a scene without instances.
 FoveationConfig fovea_covering_all(const SyntheticScene& scene);
 
+/// @brief Where a scan stands in a sequence of frames (synthetic_sequence.hpp).
+struct SequenceFrame {
+    std::uint32_t index = 0;       ///< The frame's index, 0 the first.
+    std::uint32_t noise_seed = 0;  ///< The seed of the frame's sensor noise (sequence_frame_seed).
+    /// Degrees the camera's heading has turned about the objects' centre since frame 0
+    /// (counter-clockwise seen from above: the camera walks to its right).
+    double heading_deg = 0;
+};
+
 /// @brief A synthetic scene, its scan and what `mfpc synth` writes of it.
 ///
 /// What `mfpc synth` writes into a directory:
@@ -119,7 +129,8 @@ FoveationConfig fovea_covering_all(const SyntheticScene& scene);
 ///     scene.gt.json    ground truth in the shared format: model file, instances (transform maps the
 ///                      model cloud into the scene), plus each instance's object name and visible points
 ///     labels.png       16-bit grey label per pixel: 0 no return, 1 table, 2 + i object i of scene.json
-///     scene.json       everything: seed, sensor, camera, objects (shape, distractor, poses, label, visible points)
+///     scene.json       everything: seed, sensor, camera, objects (shape, distractor, poses, label, visible points),
+///                      and for a frame of a sequence, "frame" (index, noise_seed, heading_deg)
 ///     fovea.json       one foveated structure per instance (fovea_per_instance); absent without instances
 ///     fovea_all.json   one structure covering every instance (fovea_covering_all); absent likewise
 ///     <shape>.pcd      each shape's full model cloud with normals, in its own frame (the GT's model)
@@ -131,11 +142,16 @@ struct SyntheticDataset {
     FoveationConfig fovea;           ///< One structure per instance (fovea_per_instance).
     std::vector<PointCloud> models;  ///< Per shape: its full model cloud with normals, in its own frame.
     Model model;                     ///< shapes[0] described from views (empty when not described).
-    std::uint32_t seed = 0;          ///< The composer's seed, which also keys the sensor noise.
+    /// The composer's seed, which also keys the sensor noise (but for a frame of a sequence, whose
+    /// noise has a seed of its own: SequenceFrame::noise_seed).
+    std::uint32_t seed = 0;
     SensorParams sensor;             ///< The sensor of the scan.
     /// Per object: the share of its surface the sensor would see with nothing in the way and no
     /// image border (visible_fraction_of); empty when not measured.
     std::vector<float> visible_fraction;
+    /// For a frame of a sequence (make_sequence_frame): where it stands, written to scene.json as
+    /// "frame"; empty for a scene on its own.
+    std::optional<SequenceFrame> frame;
 };
 
 /// @brief Composes, scans (seed also keys the sensor noise), samples the model clouds at
