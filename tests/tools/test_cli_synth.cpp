@@ -86,6 +86,53 @@ TEST(CliSynth, PlacesAScannedCloudModel)
               100);
 }
 
+TEST(CliSynth, SequenceIsWrittenAndEvaluated)
+{
+    const test::TempDir dir;
+    const Result r = run("--json " + quoted(dir / "summary.json") +
+                         " synth --sequence 3 --arc 10 --seed 2 --objects 1 --distractors 1 --resolution 160x120 -o " +
+                         quoted(dir / "seq"));
+    ASSERT_EQ(r.exit_code, 0) << r.err;
+    EXPECT_NE(r.out.find("frames"), std::string::npos) << r.out;
+    const auto summary = nlohmann::json::parse(slurp(dir / "summary.json"));
+    EXPECT_EQ(summary["frames"], 3);
+    EXPECT_EQ(summary["heading_step_deg"], 5.0);
+    EXPECT_EQ(line_count(slurp(dir / "seq" / "frames.txt")), 3);
+    const auto truth = nlohmann::json::parse(slurp(dir / "seq" / "frame_002" / "scene.gt.json"));
+    EXPECT_EQ(truth["model"], "../carton.pcd");
+
+    // The manifest is what `mfpc evaluate` reads: every frame runs plain and foveated.
+    const Result evaluated =
+        run("--json " + quoted(dir / "evaluation.json") + " evaluate --dataset " + quoted(dir / "seq" / "dataset.json"));
+    ASSERT_EQ(evaluated.exit_code, 0) << evaluated.err;
+    const auto report = nlohmann::json::parse(slurp(dir / "evaluation.json"));
+    ASSERT_EQ(report["scenes"].size(), 6u);
+    for (const auto& scene : report["scenes"]) {
+        EXPECT_TRUE(scene["error"].is_null()) << scene;
+        EXPECT_EQ(scene["group"], "sequence");
+    }
+    EXPECT_EQ(report["scenes"][0]["scene"], "frame_000");
+    EXPECT_EQ(report["scenes"][5]["scene"], "frame_002");
+
+    // A frame's ground truth is of the cache's model: scored without a warning.
+    const Result recognized = run("recognize --model " + quoted(dir / "seq" / "carton.mfpcm") + " --scene " +
+                                  quoted(dir / "seq" / "frame_001" / "scene.pcd") + " --ground-truth " +
+                                  quoted(dir / "seq" / "frame_001" / "scene.gt.json"));
+    ASSERT_EQ(recognized.exit_code, 0) << recognized.err;
+    EXPECT_EQ(recognized.err.find("ground truth of model"), std::string::npos) << recognized.err;
+
+    const std::string out = " -o " + quoted(dir / "bad");
+    expect_one_line_error(run("synth --sequence 1" + out), 2, "one frame");
+    expect_one_line_error(run("synth --sequence 10001" + out), 2, "too many frames");
+    expect_one_line_error(run("synth --arc 30" + out), 2, "--arc without --sequence");
+    const Result zero_arc = run("synth --sequence 3 --arc 0" + out);
+    expect_one_line_error(zero_arc, 2, "zero arc");
+    EXPECT_NE(zero_arc.err.find("--arc"), std::string::npos) << zero_arc.err;
+    expect_one_line_error(run("synth --sequence 3 --arc 400" + out), 2, "arc past a turn");
+    expect_one_line_error(run("synth --sequence 3 --arc nan" + out), 2, "NaN arc");
+    EXPECT_FALSE(std::filesystem::exists(dir / "bad"));
+}
+
 TEST(CliDemo, RunsWithNoInputAndFindsTheCartons)
 {
     const test::TempDir dir;

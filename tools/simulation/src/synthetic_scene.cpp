@@ -15,8 +15,77 @@
 #include "mfpc/kernels/normals.hpp"
 #include "mfpc/rendering/png_image.hpp"
 #include "mfpc/simulation/view_model.hpp"
+#include "synthetic_files.hpp"
 
 namespace mfpc {
+
+namespace detail {
+
+std::string file_safe(const std::string& name)
+{
+    std::string safe = name.empty() ? std::string("object") : name;
+    for (char& c : safe)
+        if (!(std::isalnum(static_cast<unsigned char>(c)) || c == '-' || c == '_' || c == '.')) c = '_';
+    for (const char* reserved : {"scene", "labels", "fovea", "scene.gt"})
+        if (safe == reserved) safe += "_model";
+    return safe;
+}
+
+std::vector<std::string> model_cloud_files(const SyntheticScene& scene)
+{
+    std::vector<std::string> files;
+    for (std::size_t s = 0; s < scene.shapes.size(); ++s) {
+        std::string file = file_safe(scene.shapes[s].name) + ".pcd";
+        // Two shapes of one name (a file named like a built-in) get distinct files.
+        if (std::find(files.begin(), files.end(), file) != files.end())
+            file = file_safe(scene.shapes[s].name) + "_" + std::to_string(s) + ".pcd";
+        files.push_back(file);
+    }
+    return files;
+}
+
+std::string model_cache_file(const SyntheticScene& scene) { return file_safe(scene.shapes.at(0).name) + ".mfpcm"; }
+
+void check_camera_reach(const SyntheticScene& scene, const SensorParams& sensor)
+{
+    float nearest = std::numeric_limits<float>::infinity();
+    for (const SceneObject& object : scene.objects)
+        nearest = std::min(nearest, (scene.camera.translation() - object.pose.translation()).norm());
+    if (nearest > sensor.max_range)
+        throw Error("synth", "the objects need the camera " + format_number(std::round(nearest * 100.0f) / 100.0f) +
+                                 " m away, beyond max_range " + format_number(sensor.max_range) +
+                                 " m: place fewer objects or raise max_range");
+}
+
+std::vector<PointCloud> model_clouds(const SyntheticScene& scene, float model_spacing)
+{
+    std::vector<PointCloud> models;
+    for (const SceneShape& shape : scene.shapes) {
+        // A fixed sampling seed: a shape's model cloud is the same file in every scene.
+        models.push_back(shape.mesh.empty() ? shape.discs : sample_surface(shape.mesh, model_spacing, 1));
+    }
+    return models;
+}
+
+Model describe_object(const SyntheticScene& scene, const PointCloud& surface, const FeatureParams& features,
+                      const SensorParams& sensor)
+{
+    Model model = prepare_view_model(scene.shapes.at(0), surface, features, view_model_params(sensor));
+    model.source = model_cloud_files(scene).at(0);
+    return model;
+}
+
+void write_json_file(const std::filesystem::path& path, const nlohmann::ordered_json& json)
+{
+    write_file_atomically(path, [&](std::ofstream& out) {
+        out << json.dump(2, ' ', false, nlohmann::ordered_json::error_handler_t::replace) << '\n';
+    });
+}
+
+}  // namespace detail
+
+using detail::file_safe;
+using detail::write_json_file;
 
 namespace {
 
@@ -26,18 +95,6 @@ std::string lower_extension(const std::filesystem::path& path)
     std::transform(extension.begin(), extension.end(), extension.begin(),
                    [](unsigned char c) { return char(std::tolower(c)); });
     return extension;
-}
-
-// Shape names become file names: keep them to a safe alphabet, and off the names of the dataset's
-// own files (a mesh named scene.ply must not have its model overwritten by the scan).
-std::string file_safe(const std::string& name)
-{
-    std::string safe = name.empty() ? std::string("object") : name;
-    for (char& c : safe)
-        if (!(std::isalnum(static_cast<unsigned char>(c)) || c == '-' || c == '_' || c == '.')) c = '_';
-    for (const char* reserved : {"scene", "labels", "fovea", "scene.gt"})
-        if (safe == reserved) safe += "_model";
-    return safe;
 }
 
 float median_nearest_distance(std::span<const Point> points, const NeighborGrid& grid)
@@ -60,14 +117,6 @@ nlohmann::ordered_json pose_json(const Pose& pose)
 {
     const auto values = pose_to_row_major(pose);
     return nlohmann::ordered_json(std::vector<double>(values.begin(), values.end()));
-}
-
-void write_json_file(const std::filesystem::path& path, const nlohmann::ordered_json& json)
-{
-    // File names in the document may not be UTF-8: their bad bytes become U+FFFD, not an exception.
-    write_file_atomically(path, [&](std::ofstream& out) {
-        out << json.dump(2, ' ', false, nlohmann::ordered_json::error_handler_t::replace) << '\n';
-    });
 }
 
 }  // namespace
@@ -208,7 +257,6 @@ SyntheticScene compose_scene(std::vector<SceneShape> shapes, const ComposeParams
         scale *= 1.1;  // crowded: the same draw sequence goes on in a larger area
     }
 
-    Eigen::Vector3f centre = Eigen::Vector3f::Zero();
     for (std::size_t i = 0; i < kinds.size(); ++i) {
         SceneObject object;
         object.shape = kinds[i];
@@ -218,10 +266,8 @@ SyntheticScene compose_scene(std::vector<SceneShape> shapes, const ComposeParams
                                    .toRotationMatrix();
         object.pose.translation() = Eigen::Vector3f(centres[i].x(), centres[i].y(), 0.0f);
         scene.objects.push_back(object);
-        centre += Eigen::Vector3f(centres[i].x(), centres[i].y(), 0.0f);
     }
-    centre /= float(kinds.size());
-    centre.z() = 0.08f;  // look at mid-height of a typical object, not at its foot
+    const Eigen::Vector3f centre = objects_centre(scene);
 
     const double heading = uniform(0.0, 2.0 * std::numbers::pi);
     const double elevation = uniform(params.camera_elevation_min_deg, params.camera_elevation_max_deg) *
@@ -236,6 +282,16 @@ SyntheticScene compose_scene(std::vector<SceneShape> shapes, const ComposeParams
     scene.plane_half_size = Eigen::Vector2f(float(params.placement_half_x * scale + 0.3),
                                             float(params.placement_half_y * scale + 0.3));
     return scene;
+}
+
+Eigen::Vector3f objects_centre(const SyntheticScene& scene)
+{
+    Eigen::Vector3f centre = Eigen::Vector3f::Zero();
+    for (const SceneObject& object : scene.objects)
+        centre += Eigen::Vector3f(object.pose.translation().x(), object.pose.translation().y(), 0.0f);
+    if (!scene.objects.empty()) centre /= float(scene.objects.size());
+    centre.z() = 0.08f;  // look at mid-height of a typical object, not at its foot
+    return centre;
 }
 
 Box object_box_in_camera(const SyntheticScene& scene, std::size_t index)
@@ -334,35 +390,28 @@ std::vector<float> visible_fraction_of(const SyntheticScene& scene, const Scan& 
     return fractions;
 }
 
+SyntheticDataset scan_synthetic_scene(SyntheticScene scene, const SensorParams& sensor, std::uint32_t seed)
+{
+    check_sensor(sensor);
+    detail::check_camera_reach(scene, sensor);
+    SyntheticDataset dataset;
+    dataset.seed = seed;
+    dataset.sensor = sensor;
+    dataset.scene = std::move(scene);
+    dataset.scan = scan_scene(dataset.scene, sensor, seed);
+    dataset.fovea = fovea_per_instance(dataset.scene);
+    return dataset;
+}
+
 SyntheticDataset make_synthetic_dataset(std::vector<SceneShape> shapes, const ComposeParams& compose,
                                         const SensorParams& sensor, float model_spacing, const FeatureParams& features,
                                         bool describe_model)
 {
     check_sensor(sensor);
     check_model_spacing(model_spacing);
-    SyntheticDataset dataset;
-    dataset.seed = compose.seed;
-    dataset.sensor = sensor;
-    dataset.scene = compose_scene(std::move(shapes), compose);
-    // A crowded table moves the camera back; past the sensor's range the scan would be empty.
-    float nearest = std::numeric_limits<float>::infinity();
-    for (const SceneObject& object : dataset.scene.objects)
-        nearest = std::min(nearest, (dataset.scene.camera.translation() - object.pose.translation()).norm());
-    if (nearest > sensor.max_range)
-        throw Error("synth", "the objects need the camera " + format_number(std::round(nearest * 100.0f) / 100.0f) +
-                                 " m away, beyond max_range " + format_number(sensor.max_range) +
-                                 " m: place fewer objects or raise max_range");
-    dataset.scan = scan_scene(dataset.scene, sensor, compose.seed);
-    dataset.fovea = fovea_per_instance(dataset.scene);
-    for (const SceneShape& shape : dataset.scene.shapes) {
-        // A fixed sampling seed: a shape's model cloud is the same file in every scene.
-        dataset.models.push_back(shape.mesh.empty() ? shape.discs : sample_surface(shape.mesh, model_spacing, 1));
-    }
-    if (describe_model) {
-        dataset.model = prepare_view_model(dataset.scene.shapes[0], dataset.models[0], features,
-                                           view_model_params(sensor));
-        dataset.model.source = file_safe(dataset.scene.shapes[0].name) + ".pcd";
-    }
+    SyntheticDataset dataset = scan_synthetic_scene(compose_scene(std::move(shapes), compose), sensor, compose.seed);
+    dataset.models = detail::model_clouds(dataset.scene, model_spacing);
+    if (describe_model) dataset.model = detail::describe_object(dataset.scene, dataset.models[0], features, sensor);
     return dataset;
 }
 
@@ -383,7 +432,7 @@ void prepare_output_directory(const std::filesystem::path& directory)
 GroundTruth ground_truth_of(const SyntheticDataset& dataset)
 {
     GroundTruth truth;
-    truth.model = file_safe(dataset.scene.shapes.at(0).name) + ".pcd";
+    truth.model = detail::model_cloud_files(dataset.scene).at(0);
     const Pose world_to_camera = dataset.scene.camera.inverse();
     for (std::size_t i = 0; i < dataset.scene.objects.size(); ++i) {
         const SceneObject& object = dataset.scene.objects[i];
@@ -399,23 +448,33 @@ GroundTruth ground_truth_of(const SyntheticDataset& dataset)
     return truth;
 }
 
+void write_synthetic_models(const std::filesystem::path& directory, const SyntheticDataset& dataset)
+{
+    const SyntheticScene& scene = dataset.scene;
+    if (dataset.models.size() < scene.shapes.size())
+        throw Error(directory.string(), "the dataset has " + std::to_string(dataset.models.size()) +
+                                            " model clouds for " + std::to_string(scene.shapes.size()) + " shapes");
+    prepare_output_directory(directory);
+    const std::vector<std::string> model_files = detail::model_cloud_files(scene);
+    for (std::size_t s = 0; s < scene.shapes.size(); ++s) write_cloud(directory / model_files[s], dataset.models[s]);
+    if (dataset.model.features.size() > 0) write_model_cache(directory / detail::model_cache_file(scene), dataset.model);
+}
+
 void write_synthetic_dataset(const std::filesystem::path& directory, const SyntheticDataset& dataset)
+{
+    write_synthetic_models(directory, dataset);
+    write_synthetic_scene_files(directory, dataset);
+}
+
+void write_synthetic_scene_files(const std::filesystem::path& directory, const SyntheticDataset& dataset,
+                                 const std::filesystem::path& model_directory)
 {
     prepare_output_directory(directory);
 
     const SyntheticScene& scene = dataset.scene;
     const Scan& scan = dataset.scan;
-    std::vector<std::string> model_files;
-    for (std::size_t s = 0; s < scene.shapes.size(); ++s) {
-        std::string file = file_safe(scene.shapes[s].name) + ".pcd";
-        // Two shapes of one name (a file named like a built-in) get distinct files.
-        if (std::find(model_files.begin(), model_files.end(), file) != model_files.end())
-            file = file_safe(scene.shapes[s].name) + "_" + std::to_string(s) + ".pcd";
-        model_files.push_back(file);
-        write_cloud(directory / file, dataset.models[s]);
-    }
-    if (dataset.model.features.size() > 0)
-        write_model_cache(directory / (file_safe(scene.shapes[0].name) + ".mfpcm"), dataset.model);
+    std::vector<std::string> model_files = detail::model_cloud_files(scene);
+    for (std::string& file : model_files) file = (model_directory / file).generic_string();
     write_cloud(directory / "scene.pcd", scan.cloud, {CloudEncoding::binary, true});
     write_png_gray16(directory / "labels.png", scan.cloud.width, scan.cloud.height, scan.labels);
 
@@ -458,6 +517,10 @@ void write_synthetic_dataset(const std::filesystem::path& directory, const Synth
         {"plane_half_size", {scene.plane_half_size.x(), scene.plane_half_size.y()}},
         {"points", scan.cloud.size()},
         {"objects", objects}};
+    if (dataset.frame)
+        manifest["frame"] = {{"index", dataset.frame->index},
+                             {"noise_seed", dataset.frame->noise_seed},
+                             {"heading_deg", dataset.frame->heading_deg}};
     write_json_file(directory / "scene.json", manifest);
     // A scene without instances has no fovea to place, and a config needs one structure.
     if (!dataset.fovea.structures.empty()) {

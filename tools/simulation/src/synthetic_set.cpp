@@ -2,17 +2,16 @@
 
 #include <array>
 #include <cstdio>
-#include <fstream>
 #include <set>
 
 #include <nlohmann/json.hpp>
 
-#include "mfpc/core/detail/atomic_file.hpp"
 #include "mfpc/core/error.hpp"
 #include "mfpc/recognition/model.hpp"
 #include "mfpc/simulation/mesh.hpp"
 #include "mfpc/simulation/synthetic_scene.hpp"
 #include "mfpc/simulation/view_model.hpp"
+#include "synthetic_files.hpp"
 
 namespace mfpc {
 namespace {
@@ -27,6 +26,31 @@ std::string scene_directory(const std::string& preset, std::uint32_t index)
 }
 
 }  // namespace
+
+namespace detail {
+
+nlohmann::ordered_json manifest_scene(const std::string& name, const std::string& model, bool has_fovea,
+                                      const std::string& group)
+{
+    nlohmann::ordered_json scene = {{"name", name},
+                                    {"model", model},
+                                    {"cloud", name + "/scene.pcd"},
+                                    {"ground_truth", name + "/scene.gt.json"}};
+    if (has_fovea) scene["fovea"] = name + "/fovea.json";
+    scene["group"] = group;
+    return scene;
+}
+
+void write_manifest(const std::filesystem::path& directory, const nlohmann::ordered_json& models,
+                    const nlohmann::ordered_json& scenes)
+{
+    // "out/set/" names the set "set" as "out/set" does, and "." names it after the working directory.
+    std::filesystem::path folder = std::filesystem::absolute(directory).lexically_normal();
+    if (folder.filename().empty()) folder = folder.parent_path();
+    write_json_file(directory / "dataset.json", {{"name", folder.filename().string()}, {"models", models}, {"scenes", scenes}});
+}
+
+}  // namespace detail
 
 std::span<const std::string_view> sensor_preset_names() { return preset_names; }
 
@@ -102,18 +126,11 @@ void write_synthetic_set(const std::filesystem::path& directory, const Synthetic
             dataset.visible_fraction = visible_fraction_of(dataset.scene, dataset.scan, sensors[p], compose.seed);
             const std::string name = scene_directory(preset, k);
             write_synthetic_dataset(directory / name, dataset);
-            nlohmann::ordered_json scene = {{"name", name},
-                                            {"model", preset + "_" + target},
-                                            {"cloud", name + "/scene.pcd"},
-                                            {"ground_truth", name + "/scene.gt.json"}};
-            if (!dataset.fovea.structures.empty()) scene["fovea"] = name + "/fovea.json";
-            scene["group"] = preset;
-            scenes.push_back(scene);
+            scenes.push_back(detail::manifest_scene(name, preset + "_" + target, !dataset.fovea.structures.empty(), preset));
             if (progress) progress(++done, total);
         }
     }
-    const nlohmann::ordered_json manifest = {{"name", directory.filename().string()}, {"models", models}, {"scenes", scenes}};
-    write_file_atomically(directory / "dataset.json", [&](std::ofstream& out) { out << manifest.dump(2) << '\n'; });
+    detail::write_manifest(directory, models, scenes);
 }
 
 }  // namespace mfpc

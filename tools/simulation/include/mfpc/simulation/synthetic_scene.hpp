@@ -6,6 +6,7 @@
 
 #include <cstdint>
 #include <filesystem>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -86,6 +87,12 @@ struct ComposeParams {
 /// be placed without overlap.
 SyntheticScene compose_scene(std::vector<SceneShape> shapes, const ComposeParams& params);
 
+/// @brief The point compose_scene's camera looks at: the mean of the objects' positions on the
+/// table, 8 cm above it (mid-height of a typical object).
+/// @param scene The scene.
+/// @return The point, in the world frame; the origin 8 cm up for a scene without objects.
+Eigen::Vector3f objects_centre(const SyntheticScene& scene);
+
 /// @brief The axis-aligned box, in the camera frame, of object `index` as placed in the scene.
 /// @param scene The scene.
 /// @param index The object.
@@ -105,6 +112,15 @@ FoveationConfig fovea_per_instance(const SyntheticScene& scene);
 /// @return The config; without structures for a scene without instances.
 FoveationConfig fovea_covering_all(const SyntheticScene& scene);
 
+/// @brief Where a scan stands in a sequence of frames (synthetic_sequence.hpp).
+struct SequenceFrame {
+    std::uint32_t index = 0;       ///< The frame's index, 0 the first.
+    std::uint32_t noise_seed = 0;  ///< The seed of the frame's sensor noise (sequence_frame_seed).
+    /// Degrees the camera's heading has turned about the objects' centre since frame 0
+    /// (counter-clockwise seen from above: the camera walks to its right).
+    double heading_deg = 0;
+};
+
 /// @brief A synthetic scene, its scan and what `mfpc synth` writes of it.
 ///
 /// What `mfpc synth` writes into a directory:
@@ -113,7 +129,8 @@ FoveationConfig fovea_covering_all(const SyntheticScene& scene);
 ///     scene.gt.json    ground truth in the shared format: model file, instances (transform maps the
 ///                      model cloud into the scene), plus each instance's object name and visible points
 ///     labels.png       16-bit grey label per pixel: 0 no return, 1 table, 2 + i object i of scene.json
-///     scene.json       everything: seed, sensor, camera, objects (shape, distractor, poses, label, visible points)
+///     scene.json       everything: seed, sensor, camera, objects (shape, distractor, poses, label, visible points),
+///                      and for a frame of a sequence, "frame" (index, noise_seed, heading_deg)
 ///     fovea.json       one foveated structure per instance (fovea_per_instance); absent without instances
 ///     fovea_all.json   one structure covering every instance (fovea_covering_all); absent likewise
 ///     <shape>.pcd      each shape's full model cloud with normals, in its own frame (the GT's model)
@@ -125,11 +142,16 @@ struct SyntheticDataset {
     FoveationConfig fovea;           ///< One structure per instance (fovea_per_instance).
     std::vector<PointCloud> models;  ///< Per shape: its full model cloud with normals, in its own frame.
     Model model;                     ///< shapes[0] described from views (empty when not described).
-    std::uint32_t seed = 0;          ///< The composer's seed, which also keys the sensor noise.
+    /// The composer's seed, which also keys the sensor noise (but for a frame of a sequence, whose
+    /// noise has a seed of its own: SequenceFrame::noise_seed).
+    std::uint32_t seed = 0;
     SensorParams sensor;             ///< The sensor of the scan.
     /// Per object: the share of its surface the sensor would see with nothing in the way and no
     /// image border (visible_fraction_of); empty when not measured.
     std::vector<float> visible_fraction;
+    /// For a frame of a sequence (make_sequence_frame): where it stands, written to scene.json as
+    /// "frame"; empty for a scene on its own.
+    std::optional<SequenceFrame> frame;
 };
 
 /// @brief Composes, scans (seed also keys the sensor noise), samples the model clouds at
@@ -150,6 +172,17 @@ SyntheticDataset make_synthetic_dataset(std::vector<SceneShape> shapes, const Co
                                         const SensorParams& sensor, float model_spacing = 0.002f,
                                         const FeatureParams& features = RecognitionParams{}.model,
                                         bool describe_model = true);
+
+/// @brief The scan of a scene as make_synthetic_dataset takes it: checks that the camera reaches
+/// the objects, scans (seed keys the sensor noise) and places one fovea per instance. The models
+/// are left empty, visible_fraction too.
+/// @param scene The scene.
+/// @param sensor The sensor.
+/// @param seed Keys the sensor noise; also the dataset's seed.
+/// @return The dataset of the scan.
+/// @throws mfpc::Error for a sensor check_sensor refuses, when the objects all lie beyond the
+/// sensor's max_range, or as the scan.
+SyntheticDataset scan_synthetic_scene(SyntheticScene scene, const SensorParams& sensor, std::uint32_t seed);
 
 /// @brief The views a dataset's model is described from: the scene sensor's noise model at VGA,
 /// 1 m away. They keep its noise, baseline, disparity quantization and incidence limit, but not its
@@ -174,10 +207,31 @@ std::vector<float> visible_fraction_of(const SyntheticScene& scene, const Scan& 
 
 /// @brief Writes the files above (those SyntheticDataset lists, each atomically) into `directory`,
 /// created if missing; the model cache only when the dataset's model was described.
+/// write_synthetic_models, then write_synthetic_scene_files.
 /// @param directory The directory.
 /// @param dataset The dataset.
 /// @throws mfpc::Error when the directory cannot be created or a file cannot be written.
 void write_synthetic_dataset(const std::filesystem::path& directory, const SyntheticDataset& dataset);
+/// @brief Writes the models of a dataset (each atomically) into `directory`, created if missing:
+/// `<shape>.pcd` per shape (dataset.models; a shape named like a scene file gets `_model`
+/// appended, a second shape of one name `_<index>`) and, when its model was described,
+/// `<object>.mfpcm`. Only dataset.scene's shapes, dataset.models and dataset.model are read.
+/// @param directory The directory.
+/// @param dataset The dataset.
+/// @throws mfpc::Error when the directory cannot be created, a file cannot be written, or the
+/// dataset has fewer model clouds than shapes.
+void write_synthetic_models(const std::filesystem::path& directory, const SyntheticDataset& dataset);
+/// @brief Writes the files of a dataset's scan (each atomically) into `directory`, created if
+/// missing: scene.pcd, labels.png, scene.gt.json, scene.json and, with instances, fovea.json and
+/// fovea_all.json; not the models (dataset.models and dataset.model are not read).
+/// @param directory The directory.
+/// @param dataset The dataset.
+/// @param model_directory Where the models lie, relative to `directory` (".." for the frames of a
+/// sequence, whose models are written once above them): the model files of scene.gt.json and
+/// scene.json are named through it. Empty: beside the scene, as write_synthetic_dataset writes them.
+/// @throws mfpc::Error when the directory cannot be created or a file cannot be written.
+void write_synthetic_scene_files(const std::filesystem::path& directory, const SyntheticDataset& dataset,
+                                 const std::filesystem::path& model_directory = {});
 
 /// @brief Creates `directory` if missing, so a command can refuse a bad output before long work.
 /// @param directory The directory.
