@@ -203,7 +203,7 @@ SceneOutcome run_scene(const DatasetScene& scene, const Model* model, const std:
             std::vector<PlacedInstance> found;
             for (const Instance& instance : result.instances) found.push_back({0, instance.transform});
             const Model* const models[] = {model};
-            track_update(*run.track, models, found);
+            track_update(*run.track, models, found, options.placement.track_refresh);
         }
         out.peak_memory = peak_memory_bytes();
         out.instances = result.instances.size();

@@ -209,7 +209,15 @@ std::vector<Box> segment_clusters(std::span<const Point> voxels, std::span<const
     std::vector<std::uint32_t> left(voxels.size());
     std::iota(left.begin(), left.end(), 0u);
     for (int p = 0; p < params.max_planes && left.size() >= 3; ++p) {
-        const std::vector<std::uint32_t> inliers = best_plane_inliers(voxels, left, params, 0x9e3779b9u + std::uint32_t(p));
+        std::vector<std::uint32_t> inliers = best_plane_inliers(voxels, left, params, 0x9e3779b9u + std::uint32_t(p));
+        // A support is one connected piece of the plane: the plane through a carton's face also
+        // passes through scattered voxels across the room, which would make the face look wide.
+        std::vector<std::vector<std::uint32_t>> pieces = clusters_of(voxels, inliers, params.cluster_gap);
+        if (pieces.empty()) break;
+        inliers = std::move(*std::max_element(pieces.begin(), pieces.end(), [](const auto& a, const auto& b) {
+            return a.size() < b.size();
+        }));
+        std::sort(inliers.begin(), inliers.end());
         if (inliers.size() < 3 || double(inliers.size()) < params.min_plane_fraction * double(left.size())) break;
         Eigen::Vector2f span;
         fit_plane(voxels, inliers, &span);
@@ -288,28 +296,31 @@ bool intersects_any(const Box& box, std::span<const Box> others)
     return std::any_of(others.begin(), others.end(), [&](const Box& other) { return box.intersects(other); });
 }
 
-std::vector<Box> track_clusters(std::vector<Box> clusters, PlacementTrack& track, const PlacementParams& params,
-                                PlacementResult& result)
+// track: segments' clusters where followed instances are (a followed box, grown for the motion,
+// that holds no cluster's centre is placed itself), and every cluster when the frame is due for a look at
+// what is new or nothing is followed.
+std::vector<Box> track_objects(std::span<const Point> voxels, std::span<const Model* const> models,
+                               PlacementTrack& track, const PlacementParams& params, PlacementResult& result)
 {
-    std::vector<Box> placed;
-    for (const Box& cluster : clusters) {
-        if (track.frame == 0 || intersects_any(cluster, track.found)) {
-            placed.push_back(cluster);
-            continue;
-        }
-        auto searched = std::find_if(track.searched.begin(), track.searched.end(),
-                                     [&](const auto& entry) { return entry.first.intersects(cluster); });
-        if (searched != track.searched.end() && track.frame - searched->second < std::uint64_t(params.track_refresh)) {
-            // Still the same empty cluster: follow it as the sensor moves, look again when due.
-            searched->first = cluster;
-            ++result.clusters_skipped;
-            continue;
-        }
-        placed.push_back(cluster);
-    }
-    track.placed = placed;
+    std::vector<Box> followed;
+    for (const auto& entry : track.followed) followed.push_back(grown(entry.first, params.track_margin));
+    result.followed = followed.size();
+    result.searched = followed.empty() || track.frame % std::uint64_t(params.track_refresh) == 0;
     ++track.frame;
-    return placed;
+    const std::vector<Box> clusters = segment_clusters(voxels, models, params, result);
+    if (result.searched) return clusters;
+    // A cluster is the followed object when its centre lies in the object's grown box: objects
+    // stand a centimetre apart on a table, so a neighbour's box meets the grown box but its centre
+    // lies beyond it.
+    auto centred_in = [](const Box& cluster, const Box& box) { return box.contains(cluster.center()); };
+    std::vector<Box> objects;
+    for (const Box& cluster : clusters)
+        if (std::any_of(followed.begin(), followed.end(), [&](const Box& box) { return centred_in(cluster, box); }))
+            objects.push_back(cluster);
+    for (const Box& box : followed)
+        if (std::none_of(clusters.begin(), clusters.end(), [&](const Box& cluster) { return centred_in(cluster, box); }))
+            objects.push_back(box);
+    return objects;
 }
 
 }  // namespace
@@ -369,6 +380,8 @@ void check_placement_params(const PlacementParams& params, const std::string& so
     if (!(params.grid_cell >= 0 && std::isfinite(params.grid_cell)))
         throw Error(source + ": grid_cell", "must be finite and not negative");
     at_least(params.track_refresh, 1, 1000000, "track_refresh");
+    if (!(params.track_margin >= 0 && std::isfinite(params.track_margin)))
+        throw Error(source + ": track_margin", "must be finite and not negative");
 }
 
 Box placed_model_box(const Model& model, const Pose& transform)
@@ -419,8 +432,8 @@ PlacementResult place_foveae(const PointCloud& scene, std::span<const Model* con
         label = "cluster";
         break;
     case PlacementStrategy::track:
-        objects = track_clusters(segment_clusters(voxels, models, params, result), *track, params, result);
-        label = "cluster";
+        objects = track_objects(voxels, models, *track, params, result);
+        label = "object";
         break;
     case PlacementStrategy::coarse:
         objects = coarse_hypotheses(scene, models, recognition, params, result);
@@ -451,7 +464,6 @@ PlacementResult place_foveae(const PointCloud& scene, std::span<const Model* con
                           100.0 * result.fovea_fraction);
             too_much = text;
             objects.clear();
-            if (track) track->placed.clear();
         }
     }
     result.config.downsample = Downsample::voxel;
@@ -467,8 +479,6 @@ PlacementResult place_foveae(const PointCloud& scene, std::span<const Model* con
             case PlacementStrategy::track:
                 why = std::to_string(result.clusters) + " clusters, " + std::to_string(result.clusters_too_large) +
                       " longer than an object";
-                if (params.strategy == PlacementStrategy::track)
-                    why += ", " + std::to_string(result.clusters_skipped) + " searched lately";
                 break;
             case PlacementStrategy::coarse: why = "no hypothesis"; break;
             case PlacementStrategy::grid: why = "no finite point"; break;
@@ -482,23 +492,24 @@ PlacementResult place_foveae(const PointCloud& scene, std::span<const Model* con
     return result;
 }
 
-void track_update(PlacementTrack& track, std::span<const Model* const> models, std::span<const PlacedInstance> instances)
+void track_update(PlacementTrack& track, std::span<const Model* const> models, std::span<const PlacedInstance> instances,
+                  int refresh)
 {
-    track.found.clear();
+    const std::uint64_t frame = track.frame == 0 ? 0 : track.frame - 1;
+    std::vector<std::pair<Box, std::uint64_t>> followed;
+    std::vector<Box> found;
     for (const PlacedInstance& instance : instances) {
         if (instance.model >= models.size() || !models[instance.model])
             throw Error("placement", "an instance names model " + std::to_string(instance.model) + " of " +
                                          std::to_string(models.size()));
-        track.found.push_back(placed_model_box(*models[instance.model], instance.transform));
+        found.push_back(placed_model_box(*models[instance.model], instance.transform));
+        followed.emplace_back(found.back(), frame);
     }
-    const std::uint64_t frame = track.frame == 0 ? 0 : track.frame - 1;
-    // A placed cluster replaces what was remembered of it; one that held no instance is searched.
-    std::vector<std::pair<Box, std::uint64_t>> searched;
-    for (const auto& entry : track.searched)
-        if (!intersects_any(entry.first, track.placed)) searched.push_back(entry);
-    for (const Box& box : track.placed)
-        if (!intersects_any(box, track.found)) searched.emplace_back(box, frame);
-    track.searched = std::move(searched);
+    // An instance not found again is followed where it was last seen, for a while.
+    for (const auto& entry : track.followed)
+        if (!intersects_any(entry.first, found) && frame - entry.second < std::uint64_t(refresh))
+            followed.push_back(entry);
+    track.followed = std::move(followed);
 }
 
 std::string to_json(const PlacementParams& params)
@@ -522,7 +533,8 @@ std::string to_json(const PlacementParams& params)
                                         {"coarse_factor", shortest_double(params.coarse_factor)},
                                         {"coarse_hypotheses", params.coarse_hypotheses},
                                         {"grid_cell", shortest_double(params.grid_cell)},
-                                        {"track_refresh", params.track_refresh}};
+                                        {"track_refresh", params.track_refresh},
+                                        {"track_margin", shortest_double(params.track_margin)}};
     return detail::json_text(out);
 }
 
@@ -534,7 +546,8 @@ std::string to_json(const PlacementResult& result)
         {"planes", result.planes},
         {"clusters", result.clusters},
         {"clusters_too_large", result.clusters_too_large},
-        {"clusters_skipped", result.clusters_skipped},
+        {"followed", result.followed},
+        {"searched", result.searched},
         {"hypotheses", result.hypotheses},
         {"fovea_fraction", result.fovea_fraction},
         {"ms", result.ms},
@@ -554,7 +567,8 @@ std::string summary(const PlacementResult& result)
         details = count(result.planes, "plane", "planes") + ", " + count(result.clusters, "cluster", "clusters") +
                   ", " + std::to_string(result.clusters_too_large) + " longer than an object";
         if (result.strategy == PlacementStrategy::track)
-            details += ", " + std::to_string(result.clusters_skipped) + " searched lately";
+            details = std::to_string(result.followed) + " followed" +
+                      (result.searched ? ", searched: " + details : std::string(", no search"));
         break;
     case PlacementStrategy::coarse: details = count(result.hypotheses, "hypothesis", "hypotheses"); break;
     case PlacementStrategy::grid:

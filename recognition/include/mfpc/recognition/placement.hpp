@@ -31,10 +31,10 @@ enum class PlacementStrategy {
     /// The paper's uniform distribution: cells of one model extent tiling the scene's bounds, one
     /// structure per occupied cell. Assumes nothing; saves little.
     grid,
-    /// For a sequence of frames: segments' clusters kept where the previous frame found instances
-    /// or where nothing was looked at before; clusters that were searched in vain are looked at
-    /// again every PlacementParams::track_refresh frames. Assumes the sensor moves little between
-    /// frames (the clusters of one object overlap from frame to frame).
+    /// For a sequence of frames: segments' clusters only where the instances of the frames before
+    /// were (within PlacementParams::track_margin, for the motion between frames), and all of them
+    /// every PlacementParams::track_refresh frames, or whenever nothing is followed, for what is
+    /// new. Assumes the objects move little in the sensor's frame from one frame to the next.
     track,
     /// Structures built from the ground truth (each instance's placed model), sized as the others
     /// are: what placement would give if it knew where the objects are.
@@ -119,8 +119,13 @@ struct PlacementParams {
     int coarse_hypotheses = 10;
     /// grid: cell edge; 0 is the largest model's extent.
     float grid_cell = 0.0f;
-    /// track: clusters searched in vain are looked at again every this many frames.
+    /// track: a segments pass looks for new objects every this many frames (and an instance not
+    /// found again is followed for as many): 10 frames are a third of a second at 30 Hz.
     int track_refresh = 10;
+    /// track: how far an object may move in the sensor's frame between two frames (a sensor
+    /// turning 2 degrees a frame around objects 1 m away moves them 3.5 cm): a cluster whose
+    /// centre lies within this of a followed instance's box is followed.
+    float track_margin = 0.05f;
 };
 
 /// @brief Checks every placement parameter's range.
@@ -136,14 +141,11 @@ struct PlacedInstance {
 };
 
 /// @brief What track remembers from frame to frame. Start with a default-constructed state and pass
-/// the same one to every frame, with the instances recognition found in the frame before
-/// (track_update).
+/// the same one to every frame, then tell it what recognition found in that frame (track_update).
 struct PlacementTrack {
-    std::uint64_t frame = 0;        ///< Frames placed so far.
-    std::vector<Box> found;         ///< Boxes of the previous frame's instances.
-    /// Boxes of clusters searched without an instance, with the frame they were last searched in.
-    std::vector<std::pair<Box, std::uint64_t>> searched;
-    std::vector<Box> placed;        ///< The clusters placed in the frame before (for track_update).
+    std::uint64_t frame = 0;  ///< Frames placed so far.
+    /// The instances followed: each one's box where it was last found, and that frame.
+    std::vector<std::pair<Box, std::uint64_t>> followed;
 };
 
 /// @brief A proposed foveation config and how it came about.
@@ -157,7 +159,8 @@ struct PlacementResult {
     std::size_t planes = 0;              ///< Supporting planes removed (segments, track).
     std::size_t clusters = 0;            ///< Clusters of at least min_cluster_voxels (segments, track).
     std::size_t clusters_too_large = 0;  ///< Of those, the ones longer than an object (no structure).
-    std::size_t clusters_skipped = 0;    ///< track: clusters searched in vain lately (no structure).
+    std::size_t followed = 0;            ///< track: structures on instances of the frames before.
+    bool searched = false;               ///< track: whether this frame ran a segments pass for new objects.
     std::size_t hypotheses = 0;          ///< coarse: hypotheses of the coarse pass.
     /// Of the working cloud's voxels, the fraction inside some fovea (segments, coarse, track;
     /// before the max_fovea_fraction fallback).
@@ -190,14 +193,16 @@ PlacementResult place_foveae(const PointCloud& scene, std::span<const Model* con
                              const RecognitionParams& recognition, const PlacementParams& params,
                              std::span<const PlacedInstance> truth = {}, PlacementTrack* track = nullptr);
 
-/// @brief Tells track what recognition found in the frame just placed: clusters that held an
-/// instance are followed, the others are remembered as searched.
+/// @brief Tells track what recognition found in the frame just placed: each instance is followed
+/// from its box (replacing the followed box it overlaps), and one not found again for more than
+/// track_refresh frames is dropped.
 /// @param track The state place_foveae(track) updated for this frame.
 /// @param models The models, as given to place_foveae.
 /// @param instances The instances found in the frame.
 /// @throws mfpc::Error for an instance naming a model not given.
+/// @param refresh PlacementParams::track_refresh of the placement.
 void track_update(PlacementTrack& track, std::span<const Model* const> models,
-                  std::span<const PlacedInstance> instances);
+                  std::span<const PlacedInstance> instances, int refresh = PlacementParams{}.track_refresh);
 
 /// @brief The box, in the scene, of a model placed by `transform`: its points' box.
 /// @param model The model.
