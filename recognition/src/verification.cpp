@@ -280,6 +280,22 @@ std::vector<float> depth_image(const PointCloud& scene)
     return depth;
 }
 
+// Whether the rim refutes a pose: from min_rim_probes settled probes on, the share the scene goes
+// on at is judged as measured; fewer are judged by the lower end of its 95% Wilson interval, so
+// that 11 of 19 (the scene going on all around a carton posed on a jug) refutes while 1 of 5 (a
+// bottle's cap and base) does not.
+bool rim_refutes(std::size_t continued, std::size_t settled, const VerifyParams& verify)
+{
+    if (settled == 0) return false;
+    const double n = double(settled), share = double(continued) / n;
+    if (settled >= std::size_t(verify.min_rim_probes)) return share > verify.max_continuation;
+    constexpr double z = 1.96;
+    const double centre = share + z * z / (2 * n);
+    const double spread = z * std::sqrt(share * (1 - share) / n + z * z / (4 * n * n));
+    return (centre - spread) / (1 + z * z / n) > verify.max_continuation;
+}
+
+
 }  // namespace
 
 SceneEvidence make_scene_evidence(const PointCloud& scene, const NeighborGrid& grid, std::optional<Camera> camera)
@@ -427,7 +443,7 @@ std::vector<Instance> refine_and_verify(std::vector<Instance> instances, std::sp
         const RimEvidence rim = rim_evidence(instance.transform, *probes, scratch.nearest, scene, verify, *probe_scratch);
         const std::size_t rim_settled = rim.continued + rim.free;
         instance.continuation = rim_settled ? float(rim.continued) / float(rim_settled) : 0.0f;
-        if (rim_settled >= std::size_t(verify.min_rim_probes) && instance.continuation > verify.max_continuation) continue;
+        if (rim_refutes(rim.continued, rim_settled, verify)) continue;
         accepted.push_back(n);
         accepted_inliers.push_back(inliers);
         if (verify.merge) {
