@@ -41,6 +41,7 @@ void add_counts(RecognitionCounts& sum, const RecognitionCounts& part)
 
 void add_timings(RecognitionTimings& sum, const RecognitionTimings& part)
 {
+    sum.place += part.place;
     sum.foveate += part.foveate;
     sum.normals += part.normals;
     sum.keypoints += part.keypoints;
@@ -108,7 +109,7 @@ ExperimentConfig read_experiment_config(const std::filesystem::path& path)
     for (std::size_t i = 0; i < strategies->size(); ++i) {
         const json& item = (*strategies)[i];
         const std::string where = top + "strategies[" + std::to_string(i) + "].";
-        check_keys(item, where.substr(0, where.size() - 1), {"name", "mode", "fovea", "structure"});
+        check_keys(item, where.substr(0, where.size() - 1), {"name", "mode", "fovea", "structure", "placement"});
         ExperimentStrategy strategy;
         strategy.name = text_of(item, "name", where, true);
         // Names head table rows, chart labels and progress lines: a control character or a '|'
@@ -123,7 +124,14 @@ ExperimentConfig read_experiment_config(const std::filesystem::path& path)
         const std::string fovea = text_of(item, "fovea", where, strategy.mode != FoveationMode::none);
         if (strategy.mode == FoveationMode::none && !fovea.empty())
             throw Error(where + "fovea", "mode none foveates nothing: remove the fovea or choose a mode");
-        if (!fovea.empty()) {
+        const std::string placement = text_of(item, "placement", where, false);
+        if (!placement.empty() && fovea != "auto") throw Error(where + "placement", "needs \"fovea\": \"auto\"");
+        if (fovea == "auto") {
+            if (strategy.mode == FoveationMode::single && !strategy.serial)
+                throw Error(where + "fovea", "mode single needs a config file to name its structure");
+            strategy.placement =
+                parse_placement_strategy(placement.empty() ? "segments" : placement, where + "placement");
+        } else if (!fovea.empty()) {
             strategy.fovea_file = beside(path, fovea);
             strategy.fovea = read_foveation_config(strategy.fovea_file);
         }
@@ -169,10 +177,29 @@ std::vector<StrategyOutcome> run_experiment(const ExperimentConfig& config, cons
             RecognitionResult combined;
             RecognitionCounts counts;
             RecognitionTimings timings;
-            const int parts = strategy.serial ? int(strategy.fovea.structures.size()) : 1;
+            // A placed strategy finds its structures again on every run: its time is part of the run's.
+            FoveationConfig placed;
+            if (strategy.placement) {
+                PlacementParams params;
+                params.strategy = *strategy.placement;
+                std::vector<PlacedInstance> instances;
+                for (const GroundTruthInstance& instance : truth.instances) instances.push_back({0, instance.transform});
+                const Model* const models[] = {&model};
+                PlacementTrack track;
+                const PlacementResult result = place_foveae(scene, models, config.params, params, instances,
+                                                            params.strategy == PlacementStrategy::track ? &track : nullptr);
+                placed = result.config;
+                timings.place = result.ms;
+                timings.total = result.ms;
+                if (run == 0) outcome.placement = result;
+            }
+            const FoveationConfig& fovea = strategy.placement ? placed : strategy.fovea;
+            // Nothing placed: the plain pipeline, as the placement's fallback says.
+            const bool plain = strategy.mode == FoveationMode::none || fovea.structures.empty();
+            const int parts = strategy.serial && !plain ? int(fovea.structures.size()) : 1;
             for (int part = 0; part < parts; ++part) {
-                const SceneFoveation foveation{strategy.mode == FoveationMode::none ? nullptr : &strategy.fovea,
-                                               strategy.mode, strategy.serial ? part : strategy.structure, run == 0};
+                const SceneFoveation foveation{plain ? nullptr : &fovea, plain ? FoveationMode::none : strategy.mode,
+                                               strategy.serial ? part : strategy.structure, run == 0};
                 RecognitionResult result = recognize(model, scene, config.params, foveation);
                 const std::vector<Point>& kept = result.foveated.cloud.points;
                 outcome.foveated.points.insert(outcome.foveated.points.end(), kept.begin(), kept.end());

@@ -24,7 +24,8 @@ struct Stage {
     const char* name;
     double RecognitionTimings::*field;
 };
-constexpr Stage stages[] = {{"foveate", &RecognitionTimings::foveate},   {"normals", &RecognitionTimings::normals},
+constexpr Stage stages[] = {{"place", &RecognitionTimings::place},         {"foveate", &RecognitionTimings::foveate},
+                            {"normals", &RecognitionTimings::normals},
                             {"keypoints", &RecognitionTimings::keypoints}, {"lrf", &RecognitionTimings::lrf},
                             {"descriptors", &RecognitionTimings::descriptors}, {"match", &RecognitionTimings::match},
                             {"group", &RecognitionTimings::group},         {"verify", &RecognitionTimings::verify},
@@ -89,7 +90,8 @@ std::string to_json(const ExperimentReport& report)
         strategies.push_back(
             {{"name", o.name},
              {"mode", mode_name(s)},
-             {"fovea", s.fovea_file.string()},
+             {"fovea", s.placement ? ordered_json("auto") : ordered_json(s.fovea_file.string())},
+             {"placement", o.placement ? ordered_json::parse(to_json(*o.placement)) : ordered_json(nullptr)},
              {"counts",
               {{"scene_points", c.scene_points},
                {"points_before_downsampling", c.scene_points_foveated},

@@ -66,6 +66,7 @@ std::string to_json(const FoveationReport& report)
         {"timings_ms", timings},
         {"threads", report.threads},
         {"warnings", report.warnings},
+        {"placement", report.placement ? ordered_json::parse(to_json(*report.placement)) : ordered_json(nullptr)},
     };
     return detail::json_text(json);
 }
@@ -76,6 +77,9 @@ std::string to_table(const FoveationReport& report)
     std::vector<std::pair<std::string, std::string>> rows = {
         {"input", report.input},
         {"mode", to_string(report.mode)},
+    };
+    if (report.placement) rows.emplace_back("placement", summary(*report.placement));
+    rows.insert(rows.end(), {
         {"downsample", to_string(report.downsample)},
         {"structures", std::to_string(report.structures) + " (levels m = " + std::to_string(report.levels) + ")"},
         {"points in", group_digits(report.points_in)},
@@ -83,7 +87,7 @@ std::string to_table(const FoveationReport& report)
         {"before downsampling", group_digits(result.points_before_downsampling)},
         {"points out", group_digits(result.cloud.size())},
         {"redundant removed", group_digits(redundant_removed(report))},
-    };
+    });
     if (!report.output.empty()) rows.emplace_back("output", report.output);
     std::string out = detail::key_value_rows(rows);
     out += "\nstructure  level  density (m)  points before  points after\n";

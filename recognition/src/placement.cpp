@@ -223,7 +223,7 @@ std::vector<Box> segment_clusters(std::span<const Point> voxels, std::span<const
         fit_plane(voxels, inliers, &span);
         // The largest plane that is no support (an object's face, a box top) ends the search:
         // the planes after it are smaller still.
-        if (span.minCoeff() < params.min_plane_span * extent) break;
+        if (span.maxCoeff() <= params.min_plane_span * extent) break;
         std::vector<std::uint32_t> rest;
         std::set_difference(left.begin(), left.end(), inliers.begin(), inliers.end(), std::back_inserter(rest));
         left = std::move(rest);
@@ -433,7 +433,7 @@ PlacementResult place_foveae(const PointCloud& scene, std::span<const Model* con
         break;
     case PlacementStrategy::track:
         objects = track_objects(voxels, models, *track, params, result);
-        label = "object";
+        label = "cluster";
         break;
     case PlacementStrategy::coarse:
         objects = coarse_hypotheses(scene, models, recognition, params, result);

@@ -3,6 +3,8 @@
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
 
+#include "mfpc/core/foveation_config.hpp"
+
 #include "cli_runner.hpp"
 #include "test_support.hpp"
 
@@ -139,7 +141,7 @@ TEST(CliDemo, RunsWithNoInputAndFindsTheCartons)
     const Result r = run("--json " + quoted(dir / "demo.json") + " demo -o " + quoted(dir / "demo"));
     ASSERT_EQ(r.exit_code, 0) << r.err;
     const auto summary = nlohmann::json::parse(slurp(dir / "demo.json"));
-    ASSERT_EQ(summary["strategies"].size(), 2u);
+    ASSERT_EQ(summary["strategies"].size(), 3u);
     for (const auto& strategy : summary["strategies"]) {
         EXPECT_EQ(strategy["instances_true"], 3) << strategy["strategy"];
         EXPECT_EQ(strategy["instances_false"], 0) << strategy["strategy"];
@@ -147,7 +149,11 @@ TEST(CliDemo, RunsWithNoInputAndFindsTheCartons)
     EXPECT_LT(summary["strategies"][1]["scene_points_used"].get<long>(),
               summary["strategies"][0]["scene_points_used"].get<long>());
     EXPECT_TRUE(std::filesystem::exists(dir / "demo" / "demo.png"));
-    EXPECT_NE(r.out.find("mfpc"), std::string::npos);
+    // The placed structures are written, and they reproduce the run.
+    EXPECT_EQ(summary["strategies"][1]["strategy"], "auto");
+    EXPECT_EQ(read_foveation_config(dir / "demo" / "fovea_auto.json").structures.size(),
+              summary["strategies"][1]["placement"]["structures"].get<std::size_t>());
+    EXPECT_NE(r.out.find("oracle"), std::string::npos);
 }
 
 }  // namespace

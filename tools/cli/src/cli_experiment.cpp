@@ -69,7 +69,14 @@ void run_experiment_command(const ExperimentOptions& options, const GlobalOption
         RenderParams params;
         params.width = scene.width;  // the sensor's view and size, though the kept points are no longer a grid
         params.height = scene.height;
-        write_png(image, render_cloud(report.outcomes[i].foveated, &s.fovea, {}, params));
+        // A placed strategy is drawn with the structures its first run placed.
+        const std::optional<PlacementResult>& placed = report.outcomes[i].placement;
+        const FoveationConfig* fovea = placed ? &placed->config : &s.fovea;
+        if (report.outcomes[i].foveated.empty()) {
+            write_png(image, render_cloud(scene, nullptr, {}, RenderParams{}));  // nothing placed: it ran plain
+            continue;
+        }
+        write_png(image, render_cloud(report.outcomes[i].foveated, fovea, {}, params));
     }
     if (!options.no_charts) write_experiment_charts(directory, to_chart_data(report));
 

@@ -12,6 +12,8 @@
 #include "mfpc/index/point_index.hpp"
 #include "mfpc/kernels/foveate.hpp"
 #include "mfpc/recognition/foveation_report.hpp"
+#include "mfpc/recognition/model.hpp"
+#include "mfpc/recognition/placement.hpp"
 #include "mfpc/simulation/primitive_scene.hpp"
 
 namespace mfpc::cli {
@@ -32,6 +34,9 @@ struct FoveateOptions {
     std::string encoding = "binary";
     std::string regions_dir;
     float index_voxel = PointIndexParams{}.voxel_size;
+    std::vector<std::string> models;  // --config auto sizes the structures from them
+    std::string params;
+    PlacementOptions placement;
 };
 
 void run_foveate(const FoveateOptions& options, const GlobalOptions& global)
@@ -49,13 +54,26 @@ void run_foveate(const FoveateOptions& options, const GlobalOptions& global)
         throw CLI::ValidationError("--structure", "only applies to --mode single");
     }
     if (!options.output.empty()) check_cloud_write_options(options.output, write_options);
+    const bool automatic = is_auto_fovea(options.config);
+    check_placement_options(options.placement, automatic, "--config");
+    if (automatic && options.models.empty()) throw CLI::ValidationError("--config auto", "needs --model");
+    if (!automatic && !options.models.empty()) throw CLI::ValidationError("--model", "needs --config auto");
+    if (!automatic && !options.params.empty()) throw CLI::ValidationError("--params", "needs --config auto");
+    if (automatic && options.placement.strategy == "oracle")
+        throw CLI::ValidationError("--placement oracle", "needs a ground truth: use `mfpc recognize --ground-truth`");
+    if (automatic && options.strict) throw CLI::ValidationError("--strict", "does not apply to --config auto");
 
     Stopwatch clock;
     Stopwatch total_clock;
     FoveationReport report;
     FoveationConfig config;
     const FoveaPolicy policy = options.strict ? FoveaPolicy::strict : FoveaPolicy::clamp;
-    if (!options.config.empty()) config = read_foveation_config(options.config, policy, &report.warnings);
+    if (!options.config.empty() && !automatic) config = read_foveation_config(options.config, policy, &report.warnings);
+    const RecognitionParams params = load_params(options.params);
+    std::vector<Model> models;
+    for (const std::string& file : options.models)
+        models.push_back(load_model(file, params.model, !options.params.empty(), options.params));
+    if (automatic) report.timings_ms.emplace_back("models", clock.lap_ms());
     for (const auto& w : report.warnings) warn(w);
 
     // The cloud (and, for the primitive scene, its config unless one was given).
@@ -80,10 +98,23 @@ void run_foveate(const FoveateOptions& options, const GlobalOptions& global)
         report.points_finite = read.points_finite;
         report.timings_ms.emplace_back("read", clock.lap_ms());
     }
+    FoveationMode run_mode = mode;
+    if (automatic) {
+        std::vector<const Model*> pointers;
+        for (const Model& model : models) pointers.push_back(&model);
+        report.placement = place_for_command(cloud, pointers, params, options.placement);
+        config = report.placement->config;
+        report.timings_ms.emplace_back("place", clock.lap_ms());
+        // Nothing placed: the cloud passes unchanged, as the warning says.
+        if (config.structures.empty()) {
+            report.warnings.push_back(report.placement->fallback);
+            run_mode = FoveationMode::none;
+        }
+    }
     if (!options.downsample.empty()) config.downsample = parse_downsample(options.downsample, "--downsample");
 
     int single_structure = 0;
-    if (mode == FoveationMode::single) {
+    if (run_mode == FoveationMode::single) {
         if (options.structure >= int(config.structures.size())) {
             throw CLI::ValidationError("--structure", "structure " + std::to_string(options.structure) +
                                                           " does not exist: the config has " +
@@ -98,11 +129,11 @@ void run_foveate(const FoveateOptions& options, const GlobalOptions& global)
 
     const PointIndex index(cloud, PointIndexParams{options.index_voxel});
     report.timings_ms.emplace_back("index", clock.lap_ms());
-    const FoveatedCloud result = foveate(cloud, index, config, mode, single_structure);
+    const FoveatedCloud result = foveate(cloud, index, config, run_mode, single_structure);
     const double foveate_ms = clock.lap_ms();
     // foveate() times its two phases; mode none has neither (its copy counts as downsampling).
     report.timings_ms.emplace_back("label", result.label_ms);
-    report.timings_ms.emplace_back("downsample", mode == FoveationMode::none ? foveate_ms : result.downsample_ms);
+    report.timings_ms.emplace_back("downsample", run_mode == FoveationMode::none ? foveate_ms : result.downsample_ms);
 
     if (!options.output.empty()) {
         if (result.cloud.empty()) {
@@ -123,7 +154,7 @@ void run_foveate(const FoveateOptions& options, const GlobalOptions& global)
     report.timings_ms.emplace_back("total", total_clock.lap_ms());
 
     report.output = options.output;
-    report.mode = mode;
+    report.mode = run_mode;
     report.single_structure = single_structure;
     report.downsample = config.downsample;
     report.structures = config.structures.size();
@@ -150,8 +181,19 @@ void add_foveate_command(CLI::App& app, const GlobalOptions& global)
     command->add_option("--procedural-objects", options->procedural_objects, "Objects in the procedural scene")
         ->check(CLI::Range(1, 8))
         ->capture_default_str();
-    command->add_option("-c,--config", options->config, "Foveation config (JSON; keys in the README)")
-        ->type_name("FOVEA.json");
+    command->add_option("-c,--config", options->config,
+                        "Foveation config (JSON; keys in the README); `auto` places the structures from the cloud "
+                        "and --model (see --placement)")
+        ->type_name("FOVEA.json|auto");
+    command->add_option("--model", options->models,
+                        "With --config auto: a model to place structures for (cloud or .mfpcm cache); repeat for "
+                        "several")
+        ->type_name("MODEL");
+    command->add_option("-p,--params", options->params,
+                        "With --config auto: recognition parameters whose scene side sizes the structures (JSON; "
+                        "default: the built-in set)")
+        ->type_name("PARAMS.json");
+    add_placement_options(command, options->placement, "--config");
     command->add_option("-m,--mode", options->mode,
                         "none: no foveation; single: one structure (FPC); raw: each structure on its own, "
                         "concatenated; mfpc: redundancy-treated multifoveation")

@@ -1,10 +1,13 @@
 #include "mfpc/simulation/demo.hpp"
 
+#include <algorithm>
 #include <chrono>
+#include <fstream>
 #include <cstdio>
 
 #include <nlohmann/json.hpp>
 
+#include "mfpc/core/detail/atomic_file.hpp"
 #include "mfpc/core/detail/text_format.hpp"
 #include "mfpc/core/error.hpp"
 #include "mfpc/recognition/params.hpp"
@@ -55,13 +58,29 @@ DemoRun run_demo(const DemoParams& params, const std::filesystem::path& director
 
     start = std::chrono::steady_clock::now();
     run.truth = ground_truth_of(run.dataset);
-    for (const char* name : {"plain", "mfpc"}) {
+    std::vector<PlacedInstance> instances;
+    for (const GroundTruthInstance& instance : run.truth.instances) instances.push_back({0, instance.transform});
+    const Model* const models[] = {&run.dataset.model};
+    for (const char* name : {"plain", "auto", "oracle"}) {
         tell(std::string("recognizing: ") + name);
-        SceneFoveation foveation;
-        if (std::string(name) == "mfpc") foveation = {&run.dataset.fovea, FoveationMode::mfpc, 0};
-        DemoStrategy strategy{name, recognize(run.dataset.model, run.dataset.scan.cloud, recognition, foveation), {}};
+        DemoStrategy strategy;
+        strategy.name = name;
+        if (strategy.name != "plain") {
+            PlacementParams placement;
+            placement.strategy = strategy.name == "auto" ? PlacementStrategy::segments : PlacementStrategy::oracle;
+            strategy.placement = place_foveae(run.dataset.scan.cloud, models, recognition, placement, instances);
+        }
+        const bool foveated = strategy.placement && !strategy.placement->config.structures.empty();
+        const SceneFoveation foveation{foveated ? &strategy.placement->config : nullptr,
+                                       foveated ? FoveationMode::mfpc : FoveationMode::none, 0};
+        strategy.result = recognize(run.dataset.model, run.dataset.scan.cloud, recognition, foveation);
         strategy.evaluation = evaluate(strategy.result, run.dataset.model, run.truth);
         run.strategies.push_back(std::move(strategy));
+    }
+    const FoveationConfig& placed = run.strategies[1].placement->config;
+    if (!placed.structures.empty()) {
+        const std::string text = to_json(placed);
+        write_file_atomically(directory / "fovea_auto.json", [&](std::ofstream& out) { out << text; });
     }
     run.recognize_ms = elapsed_ms(start);
     return run;
@@ -70,15 +89,19 @@ DemoRun run_demo(const DemoParams& params, const std::filesystem::path& director
 void render_demo(DemoRun& run)
 {
     const auto start = std::chrono::steady_clock::now();
-    if (run.strategies.empty()) throw Error("demo", "nothing recognised to draw");
+    const auto automatic = std::find_if(run.strategies.begin(), run.strategies.end(),
+                                        [](const DemoStrategy& s) { return s.name == "auto" && s.placement; });
+    if (automatic == run.strategies.end()) throw Error("demo", "no automatically placed run to draw");
     std::vector<RenderOverlay> overlays;
-    for (const Instance& instance : run.strategies.back().result.instances) {
+    for (const Instance& instance : automatic->result.instances) {
         RenderOverlay overlay;
         for (const Point& p : run.dataset.model.points) overlay.points.push_back(instance.transform * p);
         overlays.push_back(std::move(overlay));
     }
     run.image = run.directory / "demo.png";
-    write_png(run.image, render_cloud(run.dataset.scan.cloud, &run.dataset.fovea, overlays, RenderParams{}));
+    const FoveationConfig& placed = automatic->placement->config;
+    write_png(run.image, render_cloud(run.dataset.scan.cloud, placed.structures.empty() ? nullptr : &placed, overlays,
+                                      RenderParams{}));
     run.render_ms = elapsed_ms(start);
 }
 
@@ -95,7 +118,9 @@ std::string to_json(const DemoRun& run)
                               {"instances_false", s.evaluation.instances_false},
                               {"instances_missed", s.evaluation.instances_missed},
                               {"correspondence_precision", s.evaluation.correspondence_precision},
-                              {"time_ms", s.result.timings.total}});
+                              {"placement", s.placement ? nlohmann::ordered_json::parse(to_json(*s.placement))
+                                                        : nlohmann::ordered_json(nullptr)},
+                              {"time_ms", s.ms()}});
     }
     const nlohmann::ordered_json json = {
         {"output", run.directory.string()},
@@ -124,20 +149,24 @@ std::string to_table(const DemoRun& run)
                       group_digits(run.dataset.model.features.size()) +
                       " keypoints from 16 views (made with the scene, not counted below)\n\n";
     char line[200];
-    std::snprintf(line, sizeof line, "%-9s %12s %10s %16s %8s %6s %7s %10s\n", "strategy", "points kept", "keypoints",
-                  "correspondences", "found", "false", "missed", "time (ms)");
+    std::snprintf(line, sizeof line, "%-9s %10s %12s %10s %16s %8s %6s %7s %10s\n", "strategy", "structures",
+                  "points kept", "keypoints", "correspondences", "found", "false", "missed", "time (ms)");
     out += line;
     for (const DemoStrategy& s : run.strategies) {
         const RecognitionCounts& counts = s.result.counts;
-        std::snprintf(line, sizeof line, "%-9s %12s %10s %16s %5zu/%zu %6zu %7zu %10.1f\n", s.name.c_str(),
+        std::snprintf(line, sizeof line, "%-9s %10s %12s %10s %16s %5zu/%zu %6zu %7zu %10.1f\n", s.name.c_str(),
+                      s.placement ? std::to_string(s.placement->config.structures.size()).c_str() : "-",
                       group_digits(counts.scene_points_used).c_str(), group_digits(counts.scene_keypoints).c_str(),
                       group_digits(counts.correspondences).c_str(), s.evaluation.instances_true,
                       run.truth.instances.size(), s.evaluation.instances_false, s.evaluation.instances_missed,
-                      s.result.timings.total);
+                      s.ms());
         out += line;
     }
+    out += "auto: structures placed from the scene and the model (segments); oracle: placed the same way around "
+           "the ground truth's instances; times include placement\n";
     out += "\nwrote " + run.directory.string() + "/: scene.pcd scene.gt.json labels.png scene.json fovea.json, " +
-           "model clouds, " + p.object + ".mfpcm, and demo.png (mfpc foveation, instances in red)\n" + "total " +
+           "fovea_auto.json (the placed structures), model clouds, " + p.object +
+           ".mfpcm, and demo.png (the placed structures, instances found in them in red)\n" + "total " +
            format_fixed((run.synthesize_ms + run.recognize_ms + run.render_ms) / 1000.0, 1) + " s\n";
     return out;
 }

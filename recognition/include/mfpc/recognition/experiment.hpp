@@ -7,6 +7,7 @@
 #include <cstddef>
 #include <filesystem>
 #include <functional>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -14,6 +15,7 @@
 #include "mfpc/recognition/evaluation.hpp"
 #include "mfpc/recognition/ground_truth.hpp"
 #include "mfpc/recognition/params.hpp"
+#include "mfpc/recognition/placement.hpp"
 #include "mfpc/recognition/recognize.hpp"
 
 namespace mfpc {
@@ -28,8 +30,11 @@ struct ExperimentStrategy {
     FoveationMode mode = FoveationMode::none;   ///< How the scene is foveated (single for a serial strategy).
     bool serial = false;                        ///< One single-structure recognition per structure, added up.
     int structure = 0;               ///< The structure of mode single.
-    std::filesystem::path fovea_file;  ///< The foveation config's file; empty for mode none.
+    std::filesystem::path fovea_file;  ///< The foveation config's file; empty for mode none or placement.
     FoveationConfig fovea;             ///< The foveation config read from it.
+    /// "fovea": "auto": the structures are placed on every run with this strategy ("placement",
+    /// default segments; oracle places from the ground truth), its time counted in the run's.
+    std::optional<PlacementStrategy> placement;
 };
 
 /// @brief An experiment: one model, one scene with its ground truth, and the strategies compared.
@@ -55,6 +60,7 @@ struct ExperimentConfig {
 /// parse_recognition_params refuses), runs not an integer in 1..100000, no strategies, a strategy
 /// name that is missing, used twice or holds control characters, '|' or '"', an unknown mode, a
 /// foveated mode without a fovea (or mode none with one), a fovea config that cannot be read, a
+/// "placement" without "fovea": "auto" or an unknown one, "fovea": "auto" for mode single, a
 /// structure given for a mode other than single, a structure the fovea lacks (or none given for a
 /// fovea of several), an unknown reference.
 ExperimentConfig read_experiment_config(const std::filesystem::path& path);
@@ -72,6 +78,8 @@ struct StrategyOutcome {
     /// The points the strategy described (its first run's foveated cloud; a serial strategy's
     /// parts together), for pictures; empty for mode none, which describes the scene itself.
     PointCloud foveated;
+    /// The first run's placement, for a strategy with "fovea": "auto"; absent otherwise.
+    std::optional<PlacementResult> placement;
 };
 
 /// @brief Runs every strategy `runs` times in turn (strategy by strategy, so caches warm the same

@@ -4,6 +4,7 @@
 /// @brief The report of `mfpc foveate` (its JSON and text table), and a foveated cloud split into
 /// its level regions.
 
+#include <optional>
 #include <string>
 #include <utility>
 #include <vector>
@@ -11,6 +12,7 @@
 #include "mfpc/core/foveation_config.hpp"
 #include "mfpc/core/point_cloud.hpp"
 #include "mfpc/kernels/foveate.hpp"
+#include "mfpc/recognition/placement.hpp"
 
 namespace mfpc {
 
@@ -30,6 +32,8 @@ struct FoveationReport {
     std::vector<std::pair<std::string, double>> timings_ms;  ///< Steps in the order they ran.
     int threads = 1;                    ///< Worker threads of the run.
     std::vector<std::string> warnings;  ///< Warnings the run gave (clamped foveae, ...).
+    /// The automatic placement the config came from (`--config auto`); absent otherwise.
+    std::optional<PlacementResult> placement;
 };
 
 /// @brief The report as JSON text (key names in the README, "mfpc foveate"): counts, one entry per

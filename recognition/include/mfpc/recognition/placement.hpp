@@ -86,10 +86,10 @@ struct PlacementParams {
     /// A plane is removed only when it holds at least this fraction of the working cloud's
     /// voxels that are left ...
     float min_plane_fraction = 0.1f;
-    /// ... and spans more than this many times the largest model's extent (its box's diagonal) in
-    /// both in-plane directions: no face of a model spans more than its diagonal, so such a plane
-    /// is a support, not an object's face (a narrow view sees only a part of a table: twice the
-    /// extent left the table of a stereo rig's scenes in place).
+    /// ... and its piece is longer than this many times the largest model's extent (its box's
+    /// diagonal) in some direction: no face of a model is longer than its diagonal, so such a
+    /// piece is a support, not an object's face. (A stereo rig's narrow view sees a strip of table
+    /// 64 by 25 cm beside a carton of 25 cm diagonal: the strip's width alone does not tell.)
     float min_plane_span = 1.0f;
     /// RANSAC draws per plane (three voxels each, from a fixed seed: the same planes whatever the
     /// threads).

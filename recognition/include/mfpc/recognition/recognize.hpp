@@ -55,8 +55,11 @@ struct RecognitionTimings {
     /// @var verify
     /// Refinement and verification (0 when both are disabled).
     /// @var total
-    /// The whole recognize() call.
-    double foveate = 0, normals = 0, keypoints = 0, lrf = 0, descriptors = 0, match = 0, group = 0, verify = 0,
+    /// The whole recognize() call (and the placement, where a caller adds it).
+    /// @var place
+    /// Automatic fovea placement before the call: recognize() never places, so it is 0 unless the
+    /// caller placed the foveae and added the time here and to total (run_experiment does).
+    double place = 0, foveate = 0, normals = 0, keypoints = 0, lrf = 0, descriptors = 0, match = 0, group = 0, verify = 0,
            total = 0;
 };
 

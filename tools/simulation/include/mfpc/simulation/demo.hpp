@@ -1,16 +1,19 @@
 #pragma once
 
 /// @file
-/// @brief `mfpc demo`: a synthesized tabletop scene recognised plain and foveated, with a picture.
+/// @brief `mfpc demo`: a synthesized tabletop scene recognised plain, with automatically placed
+/// foveae and with foveae placed from the ground truth, with a picture.
 
 #include <cstdint>
 #include <filesystem>
 #include <functional>
+#include <optional>
 #include <string>
 #include <vector>
 
 #include "mfpc/recognition/evaluation.hpp"
 #include "mfpc/recognition/ground_truth.hpp"
+#include "mfpc/recognition/placement.hpp"
 #include "mfpc/recognition/recognize.hpp"
 #include "mfpc/simulation/synthetic_scene.hpp"
 
@@ -26,9 +29,13 @@ struct DemoParams {
 
 /// @brief One way the demo recognised the scene.
 struct DemoStrategy {
-    std::string name;                ///< "plain" or "mfpc".
+    std::string name;                ///< "plain", "auto" (segments placement) or "oracle" (placed from the ground truth).
     RecognitionResult result;        ///< What recognize() found.
     Evaluation evaluation;           ///< Its score against the scene's ground truth.
+    std::optional<PlacementResult> placement;  ///< The foveae's placement (absent for plain).
+    /// @brief The strategy's scene time: placement and recognition.
+    /// @return Milliseconds.
+    double ms() const { return result.timings.total + (placement ? placement->ms : 0.0); }
 };
 
 /// @brief What the demo made and found.
@@ -37,7 +44,7 @@ struct DemoRun {
     std::filesystem::path directory;     ///< Where the dataset and the picture went.
     SyntheticDataset dataset;            ///< The synthesized scene, its scan and the model.
     GroundTruth truth;                   ///< The scene's ground truth.
-    std::vector<DemoStrategy> strategies;  ///< Plain, then mfpc with one structure per instance.
+    std::vector<DemoStrategy> strategies;  ///< Plain, auto, then oracle.
     std::filesystem::path image;         ///< The picture, once render_demo drew it.
     double synthesize_ms = 0;            ///< Synthesizing the scene and writing its dataset.
     double recognize_ms = 0;             ///< Recognising with both strategies.
@@ -45,8 +52,10 @@ struct DemoRun {
 };
 
 /// @brief Synthesizes a tabletop scene (as `mfpc synth`), writes its dataset into `directory`, and
-/// recognises the object in it with the default parameters, without foveation and with one
-/// structure per instance.
+/// recognises the object in it with the default parameters: without foveation, with the structures
+/// place_foveae proposes (segments, written to fovea_auto.json), and with structures placed the
+/// same way around the ground truth's instances (the oracle: what placement would give knowing
+/// where the objects are).
 /// @param params The scene.
 /// @param directory Where the dataset goes; created if missing.
 /// @param progress When given, told each step.
@@ -56,10 +65,11 @@ struct DemoRun {
 DemoRun run_demo(const DemoParams& params, const std::filesystem::path& directory,
                  const std::function<void(const std::string&)>& progress = {});
 
-/// @brief Draws the scene as foveated, with the instances the mfpc strategy (the last one) found in
-/// red, into demo.png in the run's directory, and sets `run.image` and `run.render_ms`.
+/// @brief Draws the scene with the automatically placed structures and the instances that strategy
+/// found in red, into demo.png in the run's directory, and sets `run.image` and `run.render_ms`.
 /// @param run A run of run_demo.
-/// @throws mfpc::Error for a run with no strategies, or when the picture cannot be drawn or written.
+/// @throws mfpc::Error for a run without an "auto" strategy, or when the picture cannot be drawn or
+/// written.
 void render_demo(DemoRun& run);
 
 /// @brief The run as JSON text: the scene, per strategy its counts, evaluation and time, the picture.
