@@ -155,5 +155,82 @@ TEST(CliRecognize, SeveralModelsFindWhatEachFindsAlone)
     EXPECT_FALSE(json["models"][1].contains("evaluation"));  // the truth is the milk carton's
 }
 
+// --fovea auto as a user meets it on a real scene: the placement in the report, the written config
+// reproducing the run, the oracle from the ground truth, and the options that need it refused
+// without it.
+TEST(CliRecognize, AutoPlacementIsReportedWrittenAndReproduced)
+{
+    MFPC_SHARED_FILE_OR_SKIP(milk, "milk.pcd");
+    MFPC_SHARED_FILE_OR_SKIP(scene, "milk_pair.pcd");
+    MFPC_SHARED_FILE_OR_SKIP(truth, "milk_pair.gt.json");
+    const test::TempDir dir;
+    const std::string common = "--json - recognize --model " + quoted(milk) + " --scene " + quoted(scene) +
+                               " --ground-truth " + quoted(truth);
+    const Result placed = run(common + " --fovea auto --write-fovea " + quoted(dir / "placed.json"));
+    ASSERT_EQ(placed.exit_code, 0) << placed.err;
+    const auto json = nlohmann::json::parse(placed.out);
+    EXPECT_EQ(json["mode"], "mfpc");
+    EXPECT_EQ(json["placement"]["strategy"], "segments");
+    EXPECT_GE(json["placement"]["structures"].get<int>(), 2);
+    EXPECT_TRUE(json["placement"]["fallback"].is_null());
+    EXPECT_EQ(json["evaluation"]["instances_true"], 2);
+    EXPECT_EQ(json["evaluation"]["instances_false"], 0);
+
+    const Result again = run(common + " --fovea " + quoted(dir / "placed.json"));
+    ASSERT_EQ(again.exit_code, 0) << again.err;
+    const auto reproduced = nlohmann::json::parse(again.out);
+    EXPECT_TRUE(reproduced["placement"].is_null());
+    ASSERT_EQ(reproduced["instances"].size(), json["instances"].size());
+    for (std::size_t i = 0; i < json["instances"].size(); ++i)
+        EXPECT_EQ(reproduced["instances"][i]["transform"], json["instances"][i]["transform"]) << i;
+
+    const Result oracle = run(common + " --fovea auto --placement oracle");
+    ASSERT_EQ(oracle.exit_code, 0) << oracle.err;
+    EXPECT_EQ(nlohmann::json::parse(oracle.out)["placement"]["structures"], 2);  // one per carton of the truth
+
+    const std::string plain = "recognize --model " + quoted(milk) + " --scene " + quoted(scene);
+    expect_one_line_error(run(plain + " --placement grid"), 2, "--placement without --fovea auto");
+    expect_one_line_error(run(plain + " --write-fovea " + quoted(dir / "x.json")), 2, "--write-fovea without auto");
+    expect_one_line_error(run(plain + " --fovea auto --placement oracle"), 2, "oracle without a ground truth");
+    expect_one_line_error(run(plain + " --fovea auto --placement nowhere"), 2, "unknown placement");
+    EXPECT_FALSE(std::filesystem::exists(dir / "x.json"));
+}
+
+// foveate --config auto keeps less than the cloud, and a cloud where nothing can be placed passes
+// unchanged with a warning instead of failing.
+TEST(CliFoveate, AutoConfigPlacesForTheModelsOrSaysWhyNot)
+{
+    MFPC_SHARED_FILE_OR_SKIP(milk, "milk.pcd");
+    MFPC_SHARED_FILE_OR_SKIP(scene, "milk_pair.pcd");
+    const test::TempDir dir;
+    const Result placed = run("--json - foveate " + quoted(scene) + " --config auto --model " + quoted(milk) +
+                              " -o " + quoted(dir / "kept.pcd"));
+    ASSERT_EQ(placed.exit_code, 0) << placed.err;
+    const auto json = nlohmann::json::parse(placed.out);
+    EXPECT_EQ(json["mode"], "mfpc");
+    EXPECT_GE(json["structures"].get<int>(), 2);
+    EXPECT_LT(json["points_out"].get<long>(), json["points_finite"].get<long>() / 4);
+    EXPECT_EQ(json["placement"]["structures"], json["structures"]);
+
+    // A bare table: its plane is removed and nothing stands on it.
+    std::string table = "VERSION 0.7\nFIELDS x y z\nSIZE 4 4 4\nTYPE F F F\nCOUNT 1 1 1\nWIDTH 3600\nHEIGHT 1\n"
+                        "POINTS 3600\nDATA ascii\n";
+    for (int i = 0; i < 60; ++i)
+        for (int j = 0; j < 60; ++j) table += std::to_string(-0.3 + 0.01 * i) + " 0.3 " + std::to_string(0.6 + 0.01 * j) + "\n";
+    const auto bare = dir.write("table.pcd", table);
+    const Result none = run("--json - foveate " + quoted(bare) + " --config auto --model " + quoted(milk) +
+                            " --write-fovea " + quoted(dir / "none.json"));
+    ASSERT_EQ(none.exit_code, 0) << none.err;
+    const auto unchanged = nlohmann::json::parse(none.out);
+    EXPECT_EQ(unchanged["placement"]["structures"], 0);
+    EXPECT_EQ(unchanged["mode"], "none");
+    EXPECT_EQ(unchanged["points_out"], unchanged["points_finite"]);
+    EXPECT_NE(none.err.find("without foveation"), std::string::npos) << none.err;
+    EXPECT_FALSE(std::filesystem::exists(dir / "none.json"));  // nothing placed, nothing written
+    for (const char* args : {" --config auto", " --config auto --model m.pcd --placement oracle",
+                             " --model m.pcd", " --config auto --model m.pcd --strict"})
+        expect_one_line_error(run("foveate " + quoted(scene) + args), 2, args);
+}
+
 }  // namespace
 }  // namespace mfpc
