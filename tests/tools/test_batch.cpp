@@ -1,6 +1,8 @@
 // The batch driver: which scenes a batch sees, the output that survives a kill, and the records of
 // a run over small primitive scenes with two models: each model's instances as recognize() finds
-// them alone, records in input order at any number of scenes in flight, a bad file a record.
+// them alone, records in input order at any number of scenes in flight, a bad file a record. With
+// automatic placement each scene is placed as place_foveae places it by hand; a sequence's frames
+// follow the instances of the frames before, and resumed it writes what it writes uninterrupted.
 #include <fstream>
 #include <set>
 
@@ -12,8 +14,11 @@
 #include "mfpc/batch/scaling.hpp"
 #include "mfpc/core/cloud_io.hpp"
 #include "mfpc/core/error.hpp"
+#include "mfpc/recognition/described_scene.hpp"
+#include "mfpc/recognition/placement.hpp"
 #include "mfpc/recognition/recognize.hpp"
 #include "mfpc/simulation/primitive_scene.hpp"
+#include "mfpc/simulation/synthetic_sequence.hpp"
 #include "cli_runner.hpp"
 #include "test_support.hpp"
 
@@ -35,7 +40,16 @@ std::vector<json> records_of(const std::filesystem::path& path)
 json without_timings(json record)
 {
     record.erase("timings_ms");
+    if (record.contains("placement")) record["placement"].erase("ms");
     return record;
+}
+
+std::vector<std::string> lines_of(const std::filesystem::path& path)
+{
+    std::vector<std::string> lines;
+    std::ifstream in(path);
+    for (std::string line; std::getline(in, line);) lines.push_back(line + '\n');
+    return lines;
 }
 
 TEST(BatchScenes, FoldersListsGlobsInAStableOrder)
@@ -136,6 +150,21 @@ struct SmallBatch {
     }
 };
 
+// The job run again with three scenes in flight on two worker threads into `out`: the records
+// given, in their order, but for the timings.
+void expect_same_records_at_two_threads(const BatchJob& job, const std::filesystem::path& out,
+                                        const std::vector<json>& records)
+{
+    {
+        const tbb::global_control threads(tbb::global_control::max_allowed_parallelism, 2);
+        BatchOutput output(out, false);
+        run_batch(job, output, {}, {}, 3);
+    }
+    const std::vector<json> again = records_of(out);
+    ASSERT_EQ(again.size(), records.size());
+    for (std::size_t i = 0; i < records.size(); ++i) EXPECT_EQ(without_timings(again[i]), without_timings(records[i]));
+}
+
 TEST(Batch, RecordsInOrderEachModelAsAloneAndABadFileARecord)
 {
     SmallBatch batch;
@@ -178,14 +207,7 @@ TEST(Batch, RecordsInOrderEachModelAsAloneAndABadFileARecord)
     EXPECT_GT(found, 0u);
 
     // Several scenes in flight and two worker threads: the same records, in the same order.
-    {
-        const tbb::global_control threads(tbb::global_control::max_allowed_parallelism, 2);
-        BatchOutput output(batch.dir / "three.jsonl", false);
-        run_batch(job, output, {}, {}, 3);
-    }
-    const std::vector<json> again = records_of(batch.dir / "three.jsonl");
-    ASSERT_EQ(again.size(), records.size());
-    for (std::size_t i = 0; i < records.size(); ++i) EXPECT_EQ(without_timings(again[i]), without_timings(records[i]));
+    expect_same_records_at_two_threads(job, batch.dir / "three.jsonl", records);
 }
 
 TEST(Batch, SharesSplitTheScenesAndResumeSkipsWhatIsDone)
@@ -245,12 +267,251 @@ TEST(Scaling, OnePointPerThreadCountAndTheFirstIsTheReference)
     const std::string csv = to_csv(points);
     EXPECT_EQ(std::count(csv.begin(), csv.end(), '\n'), 3);
     EXPECT_EQ(csv.find("threads,scenes,seconds,scenes_per_second,speedup,efficiency"), 0u);
+    EXPECT_NE(csv.find(",read_efficiency,place_efficiency,describe_efficiency,models_efficiency,"), std::string::npos);
     const json study = json::parse(to_json(points));
+    EXPECT_EQ(study["points"][1]["stage_efficiency"]["place"], 0.0);  // nothing placed: no time to compare
     EXPECT_DOUBLE_EQ(study["points"][0]["speedup"].get<double>(), 1.0);
     EXPECT_DOUBLE_EQ(study["points"][0]["efficiency"].get<double>(), 1.0);
     EXPECT_NEAR(study["points"][1]["efficiency"].get<double>(), study["points"][1]["speedup"].get<double>() / 2, 1e-12);
     EXPECT_THROW(to_csv({}), Error);
     EXPECT_THROW(run_scaling(batch.job, {0}, batch.dir.path()), Error);
+}
+
+TEST(BatchPlacement, EachSceneIsPlacedAsByHandAndTheSameAtTwoThreads)
+{
+    SmallBatch batch;
+    BatchJob& job = batch.job;
+    job.placement = PlacementParams{};  // segments
+    BatchSummary summary;
+    {
+        BatchOutput output(batch.dir / "one.jsonl", false);
+        summary = run_batch(job, output, {}, {}, 1);
+    }
+    EXPECT_EQ(summary.recognised, 3u);
+    EXPECT_EQ(summary.failed, 1u);
+    EXPECT_GT(summary.stages.place, 0.0);
+    EXPECT_GT(json::parse(to_json(summary))["stages_ms"]["place"].get<double>(), 0.0);
+    const std::vector<json> records = records_of(batch.dir / "one.jsonl");
+    ASSERT_EQ(records.size(), 4u);
+    EXPECT_FALSE(records[1].contains("placement"));  // the corrupt file: an error record
+
+    // Placed by hand with every model, then described once and matched: the record's instances.
+    std::vector<const Model*> models;
+    for (const BatchModel& model : job.models) models.push_back(&model.model);
+    std::size_t structures = 0;
+    for (std::size_t i : {0u, 2u, 3u}) {
+        const json& record = records[i];
+        ASSERT_EQ(record["status"], "ok") << record.dump();
+        const PointCloud& cloud = batch.clouds[i == 0 ? 0 : i - 1];
+        const PlacementResult placed = place_foveae(cloud, models, job.params, *job.placement);
+        const json& placement = record.at("placement");
+        EXPECT_EQ(placement["strategy"], "segments");
+        EXPECT_EQ(placement["structures"], placed.config.structures.size());
+        EXPECT_EQ(placement["clusters"], placed.clusters);
+        EXPECT_EQ(placement["fallback"].is_null(), placed.fallback.empty());
+        EXPECT_TRUE(record["timings_ms"].contains("place"));
+        structures += placed.config.structures.size();
+        const bool foveated = !placed.config.structures.empty();
+        const std::vector<RecognitionResult> alone =
+            recognize_models(models, cloud, job.params, {foveated ? &placed.config : nullptr,
+                                                         foveated ? FoveationMode::mfpc : FoveationMode::none, 0});
+        EXPECT_EQ(record["scene_points_used"], alone[0].counts.scene_points_used);
+        for (std::size_t m = 0; m < models.size(); ++m) {
+            const json& model = record["models"][m];
+            ASSERT_EQ(model["instances"].size(), alone[m].instances.size()) << "scene " << i << " model " << m;
+            EXPECT_EQ(model["correspondences"], alone[m].counts.correspondences);
+            for (std::size_t k = 0; k < alone[m].instances.size(); ++k)
+                EXPECT_EQ(model["instances"][k]["fitness"].get<float>(), alone[m].instances[k].fitness);
+        }
+    }
+    EXPECT_GT(structures, 0u);  // the objects on the table were placed
+
+    // Two worker threads, three scenes in flight: the same records.
+    expect_same_records_at_two_threads(job, batch.dir / "two.jsonl", records);
+}
+
+TEST(BatchPlacement, ContradictoryJobsAreRefused)
+{
+    SmallBatch batch;
+    BatchOutput output(batch.dir / "x.jsonl", false);
+    BatchJob both = batch.job;
+    const FoveationConfig fovea;
+    both.fovea = &fovea;
+    both.placement = PlacementParams{};
+    EXPECT_THROW(run_batch(both, output), Error);
+    EXPECT_THROW(recognize_scene(both, 0), Error);
+    BatchJob oracle = batch.job;
+    oracle.placement = PlacementParams{};
+    oracle.placement->strategy = PlacementStrategy::oracle;
+    EXPECT_THROW(run_batch(oracle, output), Error);
+    BatchJob bad = batch.job;
+    bad.placement = PlacementParams{};
+    bad.placement->levels = 0;
+    EXPECT_THROW(run_batch(bad, output), Error);
+    // A track goes with a sequence, and a sequence's frame needs one.
+    PlacementTrack track;
+    BatchJob segments = batch.job;
+    segments.placement = PlacementParams{};
+    EXPECT_THROW(recognize_scene(segments, 0, &track), Error);
+    BatchJob sequence = batch.job;
+    sequence.placement = PlacementParams{};
+    sequence.placement->strategy = PlacementStrategy::track;
+    EXPECT_TRUE(is_sequence(sequence));
+    EXPECT_FALSE(is_sequence(segments));
+    EXPECT_THROW(recognize_scene(sequence, 0), Error);
+    EXPECT_THROW(run_batch(sequence, output, {0, 2}), Error);  // one chain: not shared between processes
+    EXPECT_TRUE(records_of(batch.dir / "x.jsonl").empty());
+}
+
+// A short synthetic sequence (the camera turning 3 degrees a frame around 2 cartons and a
+// distractor), written once for the sequence tests.
+class BatchSequence : public ::testing::Test {
+protected:
+    static void SetUpTestSuite()
+    {
+        dir_ = new test::TempDir;
+        ComposeParams compose;
+        compose.seed = 3;
+        compose.objects = 2;
+        compose.distractors = 1;
+        SensorParams sensor;
+        sensor.width = 320;
+        sensor.height = 240;
+        write_synthetic_sequence(dir_->path(), builtin_scene_shapes(), compose, sensor, {4, 9.0f});
+    }
+    static void TearDownTestSuite()
+    {
+        delete dir_;
+        dir_ = nullptr;
+    }
+    static const std::filesystem::path& dir() { return dir_->path(); }
+    static BatchJob job()
+    {
+        BatchJob job;
+        job.scenes = list_scenes({(dir() / "frames.txt").string()});
+        job.models.push_back({"carton", read_model_cache(dir() / "carton.mfpcm")});
+        job.placement = PlacementParams{};
+        job.placement->strategy = PlacementStrategy::track;
+        return job;
+    }
+
+    static test::TempDir* dir_;
+};
+
+test::TempDir* BatchSequence::dir_ = nullptr;
+
+TEST_F(BatchSequence, FramesFollowTheInstancesOfTheFramesBefore)
+{
+    const BatchJob job = BatchSequence::job();
+    ASSERT_EQ(job.scenes.size(), 4u);
+    {
+        const tbb::global_control threads(tbb::global_control::max_allowed_parallelism, 2);
+        BatchOutput output(dir() / "seq.jsonl", false);
+        const BatchSummary summary = run_batch(job, output);
+        EXPECT_EQ(summary.recognised, 4u);
+        EXPECT_GT(summary.stages.place, 0.0);
+    }
+    const std::vector<json> records = records_of(dir() / "seq.jsonl");
+    ASSERT_EQ(records.size(), 4u);
+    ASSERT_FALSE(records[0]["models"][0]["instances"].empty()) << records[0].dump();
+
+    // By hand: one track carried along the frames, told each frame's instances.
+    PlacementTrack track;
+    std::vector<const Model*> models = {&job.models[0].model};
+    for (std::size_t i = 0; i < records.size(); ++i) {
+        const json& record = records[i];
+        EXPECT_EQ(record["scene"], job.scenes[i].string());
+        const json& placement = record.at("placement");
+        EXPECT_EQ(placement["strategy"], "track");
+        if (i == 0) {
+            EXPECT_EQ(placement["followed"], 0);
+            EXPECT_TRUE(placement["searched"].get<bool>());  // nothing followed yet: a search
+        } else {
+            EXPECT_GT(placement["followed"].get<int>(), 0) << "frame " << i;
+            EXPECT_FALSE(placement["searched"].get<bool>());  // the next search is due at frame 10
+        }
+        const PointCloud cloud = read_cloud(job.scenes[i]);
+        const PlacementResult placed = place_foveae(cloud, models, job.params, *job.placement, {}, &track);
+        EXPECT_EQ(placement["structures"], placed.config.structures.size()) << "frame " << i;
+        EXPECT_EQ(placement["followed"], placed.followed) << "frame " << i;
+        const bool foveated = !placed.config.structures.empty();
+        const RecognitionResult result =
+            recognize(*models[0], cloud, job.params,
+                      {foveated ? &placed.config : nullptr, foveated ? FoveationMode::mfpc : FoveationMode::none, 0});
+        ASSERT_EQ(record["models"][0]["instances"].size(), result.instances.size()) << "frame " << i;
+        std::vector<PlacedInstance> found;
+        for (const Instance& instance : result.instances) found.push_back({0, instance.transform});
+        track_update(track, models, found, job.placement->track_refresh);
+    }
+
+    // Killed after two frames and resumed (on one thread): the track is rebuilt from their records,
+    // and the last frames' records are those of the uninterrupted run.
+    const std::vector<std::string> lines = lines_of(dir() / "seq.jsonl");
+    {
+        std::ofstream part(dir() / "resumed.jsonl");
+        part << lines[0] << lines[1];
+    }
+    {
+        const tbb::global_control threads(tbb::global_control::max_allowed_parallelism, 1);
+        BatchOutput output(dir() / "resumed.jsonl", true);
+        const BatchSummary summary = run_batch(job, output);
+        EXPECT_EQ(summary.skipped, 2u);
+        EXPECT_EQ(summary.recognised, 2u);
+    }
+    const std::vector<json> resumed = records_of(dir() / "resumed.jsonl");
+    ASSERT_EQ(resumed.size(), 4u);
+    for (std::size_t i = 0; i < 4; ++i) EXPECT_EQ(without_timings(resumed[i]), without_timings(records[i])) << i;
+
+    // A record naming a model the job lacks cannot be replayed.
+    PlacementTrack replayed;
+    BatchJob other = job;
+    other.models[0].name = "other";
+    EXPECT_THROW(replay_record(other, lines[0], replayed), Error);
+    replay_record(job, lines[0], replayed);
+    EXPECT_EQ(replayed.frame, 1u);
+    EXPECT_EQ(replayed.followed.size(), records[0]["models"][0]["instances"].size());
+}
+
+// `mfpc batch --fovea auto` and `--sequence` as a user runs them: each scene's instances as
+// `mfpc recognize --fovea auto` finds them, the frames followed, contradictions refused (exit 2).
+TEST_F(BatchSequence, CliPlacesEachSceneOrFollowsTheFrames)
+{
+    const std::string base = "--threads 2 -q batch --model " + test::quoted(dir() / "carton.mfpcm") + " --scenes " +
+                             test::quoted(dir() / "frames.txt") + " -o ";
+    const auto placed = dir() / "cli_auto.jsonl";
+    const test::Result automatic = test::run(base + test::quoted(placed) + " --fovea auto --json -");
+    ASSERT_EQ(automatic.exit_code, 0) << automatic.err;
+    EXPECT_GT(json::parse(automatic.out)["stages_ms"]["place"].get<double>(), 0.0);
+    const std::vector<json> records = records_of(placed);
+    ASSERT_EQ(records.size(), 4u);
+    for (std::size_t i : {0u, 3u}) {
+        EXPECT_EQ(records[i]["placement"]["strategy"], "segments");
+        const test::Result alone = test::run("--threads 2 -q --json - recognize --fovea auto --model " +
+                                             test::quoted(dir() / "carton.mfpcm") + " --scene " +
+                                             test::quoted(records[i]["scene"].get<std::string>()));
+        ASSERT_EQ(alone.exit_code, 0) << alone.err;
+        const json report = json::parse(alone.out);
+        const json& instances = records[i]["models"][0]["instances"];
+        ASSERT_EQ(instances.size(), report["instances"].size()) << alone.out;
+        for (std::size_t k = 0; k < instances.size(); ++k)
+            EXPECT_EQ(instances[k]["transform"], report["instances"][k]["transform"]);
+    }
+
+    const auto sequence = dir() / "cli_seq.jsonl";
+    const test::Result followed = test::run(base + test::quoted(sequence) + " --sequence");
+    ASSERT_EQ(followed.exit_code, 0) << followed.err;
+    const std::vector<json> frames = records_of(sequence);
+    ASSERT_EQ(frames.size(), 4u);
+    for (const json& frame : frames) EXPECT_EQ(frame["placement"]["strategy"], "track");
+    EXPECT_GT(frames[1]["placement"]["followed"].get<int>(), 0);
+
+    const auto refused = dir() / "refused.jsonl";
+    for (const std::string& options :
+         {"--sequence --fovea " + test::quoted(dir() / "frame_000/fovea.json"), std::string("--sequence --placement grid"),
+          std::string("--placement coarse"), std::string("--fovea auto --placement track"),
+          std::string("--fovea auto --placement oracle"), std::string("--fovea auto --placement nearest")})
+        test::expect_one_line_error(test::run(base + test::quoted(refused) + " " + options), 2, options);
+    EXPECT_FALSE(std::filesystem::exists(refused));
 }
 
 // `mfpc batch` as a user meets it: a bad file among the scenes is a record and exit status 3; an

@@ -3,12 +3,14 @@
 #include <fcntl.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <cerrno>
 #include <chrono>
 #include <cstring>
 #include <fstream>
 #include <map>
 #include <new>
+#include <optional>
 
 #include <nlohmann/json.hpp>
 #include <tbb/info.h>
@@ -23,6 +25,7 @@
 #include "mfpc/core/peak_memory.hpp"
 #include "mfpc/core/pose.hpp"
 #include "mfpc/recognition/described_scene.hpp"
+#include "mfpc/recognition/placement.hpp"
 
 namespace mfpc {
 namespace {
@@ -74,7 +77,57 @@ std::vector<std::pair<std::string, std::string>> record_lines(const std::string&
     return records;
 }
 
+// The job's models as place_foveae and track_update take them.
+std::vector<const Model*> model_pointers(const BatchJob& job)
+{
+    std::vector<const Model*> models;
+    for (const BatchModel& model : job.models) models.push_back(&model.model);
+    return models;
+}
+
 }  // namespace
+
+bool is_sequence(const BatchJob& job)
+{
+    return job.placement && job.placement->strategy == PlacementStrategy::track;
+}
+
+void check_batch_job(const BatchJob& job)
+{
+    if (job.models.empty()) throw Error("batch", "no model to recognise");
+    if (!job.placement) return;
+    if (job.fovea) throw Error("batch", "a foveation config and automatic placement exclude each other");
+    if (job.placement->strategy == PlacementStrategy::oracle)
+        throw Error("batch", "placement oracle needs each scene's ground truth, which a batch does not have");
+    check_placement_params(*job.placement);
+}
+
+void replay_record(const BatchJob& job, const std::string& record, PlacementTrack& track)
+{
+    const nlohmann::json json = nlohmann::json::parse(record, nullptr, false);
+    if (!json.is_object() || !json.contains("scene") || !json["scene"].is_string())
+        throw Error("batch", "not a batch record: " + record.substr(0, 80));
+    const std::string scene = json["scene"].get<std::string>();
+    if (json.value("status", "") != "ok") return;  // a failed frame left the track as it was
+    const std::vector<const Model*> models = model_pointers(job);
+    std::vector<PlacedInstance> found;
+    try {
+        for (const nlohmann::json& model : json.at("models")) {
+            const std::string name = model.at("model").get<std::string>();
+            const auto it = std::find_if(job.models.begin(), job.models.end(),
+                                         [&](const BatchModel& m) { return m.name == name; });
+            if (it == job.models.end())
+                throw Error(scene, "the record names model '" + name + "', which this batch does not have");
+            for (const nlohmann::json& instance : model.at("instances"))
+                found.push_back({std::size_t(it - job.models.begin()),
+                                 pose_from_row_major(instance.at("transform").get<std::vector<double>>(), scene)});
+        }
+    } catch (const nlohmann::json::exception& e) {
+        throw Error(scene, std::string("the record's instances cannot be read: ") + e.what());
+    }
+    ++track.frame;  // as place_foveae counts the frame
+    track_update(track, models, found, job.placement ? job.placement->track_refresh : PlacementParams{}.track_refresh);
+}
 
 std::set<std::string> BatchOutput::scenes_in(const std::filesystem::path& path)
 {
@@ -109,26 +162,45 @@ void merge_parts(const BatchJob& job, const std::filesystem::path& output,
     for (const std::filesystem::path& part : parts) std::filesystem::remove(part, error);
 }
 
-SceneRecord recognize_scene(const BatchJob& job, std::size_t index)
+SceneRecord recognize_scene(const BatchJob& job, std::size_t index, PlacementTrack* track)
 {
+    check_batch_job(job);
+    if (is_sequence(job) && !track) throw Error("batch", "a sequence's frame needs the track of the frames before");
+    if (!is_sequence(job) && track) throw Error("batch", "a track is only for a sequence (placement track)");
     SceneRecord record;
     record.index = index;
     const std::string scene_name = job.scenes.at(index).string();
     const auto start = Clock::now();
+    // A frame that fails is not one the sequence has seen.
+    const PlacementTrack before = track ? *track : PlacementTrack{};
     std::string error;
     try {
         const PointCloud scene = read_cloud(job.scenes[index]);
         const double read_ms = elapsed_ms(start);
         record.stages.read = read_ms;
-        const SceneFoveation foveation{job.fovea, job.fovea ? FoveationMode::mfpc : FoveationMode::none, 0};
+        const std::vector<const Model*> pointers = model_pointers(job);
+        std::optional<PlacementResult> placement;
+        const FoveationConfig* config = job.fovea;
+        if (job.placement) {
+            // A placement that places nothing leaves the scene to the plain pipeline.
+            placement = place_foveae(scene, pointers, job.params, *job.placement, {}, track);
+            record.stages.place = placement->ms;
+            if (!placement->config.structures.empty()) config = &placement->config;
+        }
+        const SceneFoveation foveation{config, config ? FoveationMode::mfpc : FoveationMode::none, 0};
         const std::unique_ptr<DescribedScene> described = describe_scene(scene, job.params, foveation);
         ordered_json models = ordered_json::array();
         ordered_json model_ms = ordered_json::array();
-        for (const BatchModel& model : job.models) {
+        std::vector<PlacedInstance> found;
+        for (std::size_t m = 0; m < job.models.size(); ++m) {
+            const BatchModel& model = job.models[m];
             const RecognitionResult result = recognize_described(*described, model.model);
             const Point centroid = model_centroid(model.model);
             ordered_json instances = ordered_json::array();
-            for (const Instance& instance : result.instances) instances.push_back(instance_json(instance, centroid));
+            for (const Instance& instance : result.instances) {
+                instances.push_back(instance_json(instance, centroid));
+                found.push_back({m, instance.transform});
+            }
             models.push_back({{"model", model.name},
                               {"instances", instances},
                               {"correspondences", result.counts.correspondences},
@@ -137,20 +209,25 @@ SceneRecord recognize_scene(const BatchJob& job, std::size_t index)
             record.stages.models += result.timings.total;
             record.instances.push_back(result.instances.size());
         }
+        if (track) track_update(*track, pointers, found, job.placement->track_refresh);
         record.stages.describe = described->timings.total;
         record.stages.total = elapsed_ms(start);
         const RecognitionCounts& counts = described->counts;
-        const ordered_json json = {{"scene", scene_name},
-                                   {"status", "ok"},
-                                   {"scene_points", counts.scene_points},
-                                   {"scene_points_used", counts.scene_points_used},
-                                   {"scene_keypoints", counts.scene_keypoints},
-                                   {"models", models},
-                                   {"timings_ms",
-                                    {{"read", read_ms},
-                                     {"describe", described->timings.total},
-                                     {"models", model_ms},
-                                     {"total", record.stages.total}}}};
+        ordered_json json = {{"scene", scene_name},
+                             {"status", "ok"},
+                             {"scene_points", counts.scene_points},
+                             {"scene_points_used", counts.scene_points_used},
+                             {"scene_keypoints", counts.scene_keypoints}};
+        ordered_json timings = {{"read", read_ms}};
+        if (placement) {
+            json["placement"] = ordered_json::parse(to_json(*placement));
+            timings["place"] = placement->ms;
+        }
+        timings["describe"] = described->timings.total;
+        timings["models"] = model_ms;
+        timings["total"] = record.stages.total;
+        json["models"] = models;
+        json["timings_ms"] = timings;
         record.line = record_line(json);
         record.ok = true;
         return record;
@@ -161,6 +238,7 @@ SceneRecord recognize_scene(const BatchJob& job, std::size_t index)
     } catch (const std::exception& e) {
         error = scene_name + ": internal error: " + e.what();
     }
+    if (track) *track = before;
     record.instances.clear();
     record.stages.total = elapsed_ms(start);
     record.line = record_line({{"scene", scene_name}, {"status", "error"}, {"error", error}});
@@ -215,24 +293,36 @@ BatchSummary run_batch(const BatchJob& job, BatchOutput& output, const BatchShar
 {
     if (share.count < 1 || share.rank < 0 || share.rank >= share.count)
         throw Error("batch", "process " + std::to_string(share.rank) + " of " + std::to_string(share.count));
-    if (job.models.empty()) throw Error("batch", "no model to recognise");
+    check_batch_job(job);
+    const bool sequence = is_sequence(job);
+    if (sequence && share.count > 1)
+        throw Error("batch", "a sequence is one chain of frames, each placed from the instances of the one before: "
+                             "it cannot be shared between " + std::to_string(share.count) +
+                             " processes (run it in one, without mpirun)");
     BatchSummary summary;
     summary.scenes = job.scenes.size();
     for (const BatchModel& model : job.models) summary.model_names.push_back(model.name);
     summary.instances.assign(job.models.size(), 0);
+    // A sequence goes through every frame in order: those done are replayed from their records
+    // into the track, the others run.
     std::vector<std::size_t> todo;
     for (std::size_t i = 0; i < job.scenes.size(); ++i) {
-        if (output.done().count(job.scenes[i].string())) {
-            ++summary.skipped;
-        } else if (i % std::size_t(share.count) == std::size_t(share.rank)) {
-            todo.push_back(i);
-        }
+        const bool done = output.done().count(job.scenes[i].string()) > 0;
+        summary.skipped += done;
+        if ((!done || sequence) && i % std::size_t(share.count) == std::size_t(share.rank)) todo.push_back(i);
     }
+    std::map<std::string, std::string> kept;  // a sequence's done frames: scene, record
+    if (sequence && summary.skipped > 0)
+        for (auto& [scene, line] : record_lines(read_text_file(output.path()), output.path()))
+            kept[scene] = std::move(line);
+    PlacementTrack track;
     const std::size_t tokens =
         in_flight > 0 ? in_flight : std::size_t(std::max(1, tbb::this_task_arena::max_concurrency()));
     const auto start = Clock::now();
     std::size_t next = 0;
     std::size_t done = summary.skipped;
+    // A sequence's frames are recognised one at a time, in order (each needs the track its
+    // predecessor left); the scenes of any other batch in parallel.
     tbb::parallel_pipeline(
         tokens,
         tbb::make_filter<void, std::size_t>(tbb::filter_mode::serial_in_order,
@@ -243,22 +333,38 @@ BatchSummary run_batch(const BatchJob& job, BatchOutput& output, const BatchShar
                                                 }
                                                 return todo[next++];
                                             }) &
-            tbb::make_filter<std::size_t, SceneRecord>(tbb::filter_mode::parallel,
-                                                       [&](std::size_t index) { return recognize_scene(job, index); }) &
-            tbb::make_filter<SceneRecord, void>(tbb::filter_mode::serial_in_order, [&](const SceneRecord& record) {
-                output.append(record.line);
-                summary.stages.read += record.stages.read;
-                summary.stages.describe += record.stages.describe;
-                summary.stages.models += record.stages.models;
-                summary.stages.total += record.stages.total;
-                if (record.ok) {
-                    ++summary.recognised;
-                    for (std::size_t m = 0; m < record.instances.size(); ++m) summary.instances[m] += record.instances[m];
-                } else {
-                    ++summary.failed;
-                }
-                if (progress) progress(++done, summary.scenes, job.scenes[record.index].string());
-            }));
+            tbb::make_filter<std::size_t, std::optional<SceneRecord>>(
+                sequence ? tbb::filter_mode::serial_in_order : tbb::filter_mode::parallel,
+                [&](std::size_t index) -> std::optional<SceneRecord> {
+                    if (!sequence) return recognize_scene(job, index);
+                    const std::string scene = job.scenes[index].string();
+                    if (!output.done().count(scene)) return recognize_scene(job, index, &track);
+                    const auto record = kept.find(scene);
+                    if (record == kept.end())
+                        throw Error(output.path().string(), "frame " + scene +
+                                                                " is done elsewhere: without its record here the "
+                                                                "track of the frames after it cannot be rebuilt");
+                    replay_record(job, record->second, track);
+                    return std::nullopt;
+                }) &
+            tbb::make_filter<std::optional<SceneRecord>, void>(
+                tbb::filter_mode::serial_in_order, [&](const std::optional<SceneRecord>& record) {
+                    if (!record) return;
+                    output.append(record->line);
+                    summary.stages.read += record->stages.read;
+                    summary.stages.place += record->stages.place;
+                    summary.stages.describe += record->stages.describe;
+                    summary.stages.models += record->stages.models;
+                    summary.stages.total += record->stages.total;
+                    if (record->ok) {
+                        ++summary.recognised;
+                        for (std::size_t m = 0; m < record->instances.size(); ++m)
+                            summary.instances[m] += record->instances[m];
+                    } else {
+                        ++summary.failed;
+                    }
+                    if (progress) progress(++done, summary.scenes, job.scenes[record->index].string());
+                }));
     summary.seconds = elapsed_ms(start) / 1000.0;
     summary.peak_memory_bytes = peak_memory_bytes();
     return summary;
@@ -279,6 +385,12 @@ std::string to_table(const BatchSummary& summary)
     rows.emplace_back("time", format_fixed(summary.seconds, 1) + " s, " +
                                   format_fixed(summary.seconds > 0 ? double(run) / summary.seconds : 0.0, 2) +
                                   " scenes/s");
+    // Worker time: summed over the scenes, so with several in flight it exceeds the wall time.
+    const StageTimes& t = summary.stages;
+    auto seconds = [](double ms) { return format_fixed(ms / 1000.0, 2) + " s"; };
+    rows.emplace_back("stages (worker time)", "read " + seconds(t.read) + ", place " + seconds(t.place) +
+                                                  ", describe " + seconds(t.describe) + ", models " +
+                                                  seconds(t.models));
     if (summary.peak_memory_bytes > 0)
         rows.emplace_back("peak memory", format_fixed(double(summary.peak_memory_bytes) / (1024.0 * 1024.0), 0) + " MiB");
     return detail::key_value_rows(rows);
@@ -296,6 +408,12 @@ std::string to_json(const BatchSummary& summary)
                                {"failed", summary.failed},
                                {"models", models},
                                {"seconds", summary.seconds},
+                               {"stages_ms",
+                                {{"read", summary.stages.read},
+                                 {"place", summary.stages.place},
+                                 {"describe", summary.stages.describe},
+                                 {"models", summary.stages.models},
+                                 {"total", summary.stages.total}}},
                                {"peak_memory_bytes", summary.peak_memory_bytes},
                                {"scenes_per_second", summary.seconds > 0 ? double(run) / summary.seconds : 0.0}};
     return json.dump(2, ' ', false, ordered_json::error_handler_t::replace) + '\n';

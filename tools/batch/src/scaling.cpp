@@ -14,7 +14,7 @@ struct Scaling {
     double throughput = 0;  // scenes per second
     double speedup = 0;
     double efficiency = 0;
-    double read = 0, describe = 0, models = 0;  // per-stage efficiency
+    double read = 0, place = 0, describe = 0, models = 0;  // per-stage efficiency
 };
 
 double per_scene(double stage_ms, const BatchSummary& s)
@@ -43,6 +43,7 @@ std::vector<Scaling> scaling_of(const std::vector<ScalingPoint>& points)
         s.speedup = throughput(first.summary) > 0 ? s.throughput / throughput(first.summary) : 0.0;
         s.efficiency = s.speedup * double(first.threads) / double(p.threads);
         s.read = stage(p, &StageTimes::read);
+        s.place = stage(p, &StageTimes::place);
         s.describe = stage(p, &StageTimes::describe);
         s.models = stage(p, &StageTimes::models);
         out.push_back(s);
@@ -85,14 +86,15 @@ std::string to_csv(const std::vector<ScalingPoint>& points)
     const std::vector<Scaling> scaling = scaling_of(points);
     using detail::format_fixed;
     std::string csv = detail::csv_row({"threads", "scenes", "seconds", "scenes_per_second", "speedup", "efficiency",
-                                       "read_efficiency", "describe_efficiency", "models_efficiency",
+                                       "read_efficiency", "place_efficiency", "describe_efficiency", "models_efficiency",
                                        "peak_memory_bytes"});
     for (std::size_t i = 0; i < points.size(); ++i) {
         const BatchSummary& s = points[i].summary;
         const Scaling& k = scaling[i];
         csv += detail::csv_row({std::to_string(points[i].threads), std::to_string(s.recognised + s.failed),
                                 format_fixed(s.seconds, 3), format_fixed(k.throughput, 4), format_fixed(k.speedup, 3),
-                                format_fixed(k.efficiency, 3), format_fixed(k.read, 3), format_fixed(k.describe, 3),
+                                format_fixed(k.efficiency, 3), format_fixed(k.read, 3), format_fixed(k.place, 3),
+                                format_fixed(k.describe, 3),
                                 format_fixed(k.models, 3), std::to_string(s.peak_memory_bytes)});
     }
     return csv;
@@ -108,7 +110,7 @@ std::string to_json(const std::vector<ScalingPoint>& points)
                        {"scenes_per_second", k.throughput},
                        {"speedup", k.speedup},
                        {"efficiency", k.efficiency},
-                       {"stage_efficiency", {{"read", k.read}, {"describe", k.describe}, {"models", k.models}}},
+                       {"stage_efficiency", {{"read", k.read}, {"place", k.place}, {"describe", k.describe}, {"models", k.models}}},
                        {"summary", nlohmann::ordered_json::parse(to_json(points[i].summary))}});
     }
     return nlohmann::ordered_json({{"points", out}}).dump(2, ' ', false, nlohmann::ordered_json::error_handler_t::replace) +

@@ -20,7 +20,7 @@ struct BatchOptions {
     std::vector<std::string> scenes;
     std::string output;
     std::string params;
-    std::string fovea;
+    BatchFoveaOptions fovea;
     bool resume = false;
 };
 
@@ -72,18 +72,17 @@ void run_share(const ProcessGroup& group, const BatchJob& job, const BatchOption
 void run_batch_command(const BatchOptions& options, const GlobalOptions& global)
 {
     BatchJob job;
+    FoveationConfig fovea;
+    apply_batch_fovea_options(options.fovea, job, fovea);
     job.scenes = list_scenes(options.scenes);
     job.params = load_params(options.params);
-    FoveationConfig fovea;
-    if (!options.fovea.empty()) {
-        std::vector<std::string> warnings;
-        fovea = read_foveation_config(options.fovea, FoveaPolicy::clamp, &warnings);
-        for (const auto& w : warnings) warn(w);
-        job.fovea = &fovea;
-    }
-    job.models = load_batch_models(options.models, job.params, options.params);
     const ProcessGroup group;
     try {
+        if (group.size() > 1 && is_sequence(job))
+            throw Error("--sequence", "the frames are one chain, each placed from the instances of the one before: "
+                                      "they cannot be shared between the " + std::to_string(group.size()) +
+                                      " processes of mpirun (run the sequence without mpirun)");
+        job.models = load_batch_models(options.models, job.params, options.params);
         run_share(group, job, options, global);
     } catch (const std::exception& e) {
         // Under mpirun the launch ends (MPI_Abort) as this unwinds, before main could say why.
@@ -114,14 +113,16 @@ void add_batch_command(CLI::App& app, const GlobalOptions& global)
         ->required();
     command->add_option("-p,--params", options->params, "Recognition parameters (JSON; keys in the README)")
         ->type_name("PARAMS.json");
-    command->add_option("--fovea", options->fovea, "Foveate every scene with this config (mfpc mode) first")
-        ->type_name("FOVEA.json");
+    add_batch_fovea_options(command, options->fovea);
     command->add_flag("--resume", options->resume,
-                      "Continue OUT: skip the scenes it already has (a torn last line is cut and its scene run again)");
+                      "Continue OUT: skip the scenes it already has (a torn last line is cut and its scene run "
+                      "again); a sequence's track is rebuilt from the records of the frames done");
     command->footer("Records are in the order of the scenes. Under `mpirun -np N` the processes share the scenes\n"
-                    "(every N-th each, into OUT.part-RANK) and rank 0 merges them into OUT in the scenes' order. Exit status: 0 when every scene was recognised, 3 when\n"
-                    "some failed (each has an error record and the others went on), 1 or 2 for a batch that\n"
-                    "could not start.");
+                    "(every N-th each, into OUT.part-RANK) and rank 0 merges them into OUT in the scenes' order;\n"
+                    "a --sequence runs in one process, its frames one after another. With --fovea auto each\n"
+                    "record has a \"placement\" object (strategy, structures, counts, ms, fallback). Exit status:\n"
+                    "0 when every scene was recognised, 3 when some failed (each has an error record and the\n"
+                    "others went on), 1 or 2 for a batch that could not start.");
     command->callback([options, &global] { run_batch_command(*options, global); });
 }
 

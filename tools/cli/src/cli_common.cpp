@@ -169,4 +169,57 @@ PlacementResult place_for_command(const PointCloud& scene, std::span<const Model
     return result;
 }
 
+void add_batch_fovea_options(CLI::App* command, BatchFoveaOptions& options)
+{
+    command->add_option("--fovea", options.fovea,
+                        "Foveate every scene with this config (mfpc mode) first; `auto`: each scene's structures "
+                        "placed from it and every model (see --placement), the scene running plain where none is "
+                        "placed")
+        ->type_name("FOVEA.json|auto");
+    command->add_option("--placement", options.placement,
+                        "With --fovea auto: segments (default: supporting planes removed, one structure per "
+                        "object-sized cluster), coarse (hypotheses of a cheap recognition pass) or grid (the "
+                        "paper's uniform distribution); track goes with --sequence")
+        ->type_name("NAME");
+    command->add_flag("--sequence", options.sequence,
+                      "The scenes are the frames of one sequence, in their order (a folder's or glob's by name, a "
+                      "list's as listed): each frame's foveae follow the instances of the frames before (--fovea "
+                      "auto --placement track). The frames run one after another, the work within each in "
+                      "parallel, in one process (not under mpirun)");
+}
+
+void apply_batch_fovea_options(const BatchFoveaOptions& options, BatchJob& job, FoveationConfig& config)
+{
+    const bool automatic = is_auto_fovea(options.fovea);
+    if (options.sequence) {
+        if (!options.fovea.empty() && !automatic)
+            throw CLI::ValidationError("--sequence", "places each frame's foveae itself: not with --fovea " +
+                                                         options.fovea);
+        if (!options.placement.empty() && options.placement != "track")
+            throw CLI::ValidationError("--sequence", "places with track: not with --placement " + options.placement);
+    } else if (!options.placement.empty()) {
+        if (!automatic) throw CLI::ValidationError("--placement", "needs --fovea auto");
+        if (options.placement == "track")
+            throw CLI::ValidationError("--placement track",
+                                       "follows the instances from frame to frame: pass --sequence");
+        if (options.placement == "oracle")
+            throw CLI::ValidationError("--placement oracle", "needs each scene's ground truth: not for a batch");
+        if (options.placement != "segments" && options.placement != "coarse" && options.placement != "grid")
+            throw CLI::ValidationError("--placement", "'" + options.placement + "' is not one of segments, coarse, "
+                                                      "grid (or track with --sequence)");
+    }
+    if (options.sequence || automatic) {
+        PlacementParams placement;
+        placement.strategy = options.sequence        ? PlacementStrategy::track
+                             : options.placement.empty() ? PlacementStrategy::segments
+                                                         : parse_placement_strategy(options.placement, "--placement");
+        job.placement = placement;
+    } else if (!options.fovea.empty()) {
+        std::vector<std::string> warnings;
+        config = read_foveation_config(options.fovea, FoveaPolicy::clamp, &warnings);
+        for (const auto& w : warnings) warn(w);
+        job.fovea = &config;
+    }
+}
+
 }  // namespace mfpc::cli

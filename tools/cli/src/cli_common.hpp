@@ -89,6 +89,19 @@ PlacementResult place_for_command(const PointCloud& scene, std::span<const Model
                                   const RecognitionParams& params, const PlacementOptions& options,
                                   std::span<const PlacedInstance> truth = {});
 
+// --fovea FILE|auto, --placement and --sequence of `batch` and `scaling`: every scene foveated with
+// one config, each placing its own, or the scenes as the frames of one sequence (placement track).
+struct BatchFoveaOptions {
+    std::string fovea;      // a config file, "auto", or empty (plain)
+    std::string placement;  // empty: segments with --fovea auto, track with --sequence
+    bool sequence = false;
+};
+void add_batch_fovea_options(CLI::App* command, BatchFoveaOptions& options);
+
+// Refuses contradictory options (usage errors, before any work), then sets job.fovea (the file
+// read into `config`, which must outlive the job; its repairs warned) or job.placement.
+void apply_batch_fovea_options(const BatchFoveaOptions& options, BatchJob& job, FoveationConfig& config);
+
 using detail::format_fixed;
 using detail::group_digits;
 

@@ -21,6 +21,7 @@ struct ScalingOptions {
     std::string threads;  // "1,2,4"; empty: 1 up to the cores present, doubling
     std::string output;
     std::string params;
+    BatchFoveaOptions fovea;
     bool no_charts = false;
 };
 
@@ -35,6 +36,8 @@ void run_scaling_command(const ScalingOptions& options, const GlobalOptions& glo
     if (threads.empty()) threads = default_thread_counts(tbb::info::default_concurrency());
     if (!options.no_charts) require_gnuplot();
     BatchJob job;
+    FoveationConfig fovea;
+    apply_batch_fovea_options(options.fovea, job, fovea);
     job.scenes = list_scenes(options.scenes);
     job.params = load_params(options.params);
     job.models = load_batch_models(options.models, job.params, options.params);
@@ -71,6 +74,7 @@ void add_scaling_command(CLI::App& app, const GlobalOptions& global)
     command->add_option("-o,--output", options->output, "Report directory")->type_name("DIR")->required();
     command->add_option("-p,--params", options->params, "Recognition parameters (JSON; keys in the README)")
         ->type_name("PARAMS.json");
+    add_batch_fovea_options(command, options->fovea);
     command->add_flag("--no-charts", options->no_charts, "Skip the gnuplot charts");
     command->footer("Writes into DIR: threads_N.jsonl (each count's records), scaling.csv, scaling.json and the\n"
                     "charts scaling_throughput.png, scaling_speedup.png, scaling_efficiency.png (gnuplot).\n"

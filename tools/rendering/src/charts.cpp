@@ -7,6 +7,7 @@
 #include <cerrno>
 #include <cstdlib>
 #include <fstream>
+#include <sstream>
 
 #include "mfpc/core/detail/atomic_file.hpp"
 #include "mfpc/core/detail/text_file.hpp"
@@ -95,6 +96,16 @@ void write_scaling_charts(const std::filesystem::path& directory)
     const std::string first = comma == std::string::npos ? "1" : data.substr(row + 1, comma - row - 1);
     if (first.empty() || first.find_first_not_of("0123456789") != std::string::npos)
         throw Error((directory / "scaling.csv").string(), "its first row does not start with a thread count");
+    // Placement's efficiency (column 8) is drawn only for a batch that placed: 0 on every row otherwise.
+    bool placed = false;
+    std::istringstream rows(data.substr(row == std::string::npos ? data.size() : row + 1));
+    for (std::string line; std::getline(rows, line);) {
+        std::istringstream fields(line);
+        std::string field;
+        int column = 0;
+        while (column < 8 && std::getline(fields, field, ',')) ++column;
+        placed = placed || (column == 8 && std::strtod(field.c_str(), nullptr) != 0.0);
+    }
     write_file_atomically(directory / "scaling.gnuplot", [&](std::ofstream& out) {
         out << "first = " << first << ".0\n"
                "set terminal pngcairo size 800,480 noenhanced font 'sans,10'\n"
@@ -109,8 +120,10 @@ void write_scaling_charts(const std::filesystem::path& directory)
                "set output 'scaling_efficiency.png'\nset title 'Efficiency (1 = ideal)'\nset ylabel 'efficiency'\n"
                "set yrange [0:1.5]\n"
                "plot 'scaling.csv' using 1:6 skip 1 with linespoints lw 2 pt 7 title 'end to end', "
-               "'' using 1:7 skip 1 with linespoints title 'read', '' using 1:8 skip 1 with linespoints title "
-               "'describe', '' using 1:9 skip 1 with linespoints title 'models'\n";
+               "'' using 1:7 skip 1 with linespoints title 'read', "
+            << (placed ? "'' using 1:8 skip 1 with linespoints title 'place', " : "")
+            << "'' using 1:9 skip 1 with linespoints title 'describe', '' using 1:10 skip 1 with linespoints title "
+               "'models'\n";
     });
     if (run_gnuplot(directory, "scaling.gnuplot", "scaling.log") != 0)
         throw Error("scaling", "gnuplot failed drawing the charts (see " + (directory / "scaling.log").string() + ")");

@@ -6,6 +6,7 @@
 #include <cstddef>
 #include <filesystem>
 #include <functional>
+#include <optional>
 #include <set>
 #include <string>
 #include <vector>
@@ -13,6 +14,7 @@
 #include "mfpc/core/foveation_config.hpp"
 #include "mfpc/recognition/model.hpp"
 #include "mfpc/recognition/params.hpp"
+#include "mfpc/recognition/placement.hpp"
 #include "mfpc/recognition/recognize.hpp"
 
 namespace mfpc {
@@ -40,13 +42,31 @@ struct BatchJob {
     std::vector<BatchModel> models;             ///< each scene is described once and matched against each
     RecognitionParams params;                   ///< the scene side and what every model's run uses
     const FoveationConfig* fovea = nullptr;     ///< foveate every scene with this config (mfpc mode); none: plain
+    /// Place each scene's foveae itself (place_foveae with every model of the batch) and foveate it
+    /// with them (mfpc mode); a scene where nothing is placed runs plain. Not with `fovea`.
+    /// Strategy track makes the scenes the frames of one sequence, in the order of `scenes`: one
+    /// PlacementTrack is carried from frame to frame and told each frame's instances, so the frames
+    /// run one after another (see is_sequence). Oracle needs a ground truth, which a batch has not.
+    std::optional<PlacementParams> placement;
 };
 
-/// Milliseconds of a batch's stages, summed over scenes: reading, the scene's description (foveation,
-/// normals, keypoints, frames, descriptors, evidence), and the models' matching, grouping and
-/// verification.
+/// Whether a job's scenes are the frames of one sequence: its placement is track.
+/// @param job the batch
+/// @return true for placement track
+bool is_sequence(const BatchJob& job);
+
+/// Checks what a job asks for before any scene runs.
+/// @param job the batch
+/// @throws mfpc::Error for no model, both `fovea` and `placement`, placement oracle, or placement
+///         parameters check_placement_params refuses
+void check_batch_job(const BatchJob& job);
+
+/// Milliseconds of a batch's stages, summed over scenes: reading, the placement of the foveae, the
+/// scene's description (foveation, normals, keypoints, frames, descriptors, evidence), and the
+/// models' matching, grouping and verification.
 struct StageTimes {
     double read = 0;      ///< reading the scene files
+    double place = 0;     ///< placing the foveae (BatchJob::placement; 0 without)
     double describe = 0;  ///< describing each scene once
     double models = 0;    ///< every model's matching, grouping, refinement and verification
     double total = 0;     ///< each scene from its read to its record
@@ -62,12 +82,28 @@ struct SceneRecord {
 };
 
 /// Reads and recognises scene `index` of the job: the record's JSON line (see the README,
-/// `mfpc batch`) with per model its instances and counts, the timings, or the error that stopped
-/// the scene. Never throws for a bad scene: that is an error record.
+/// `mfpc batch`) with per model its instances and counts, the placement when the job places, the
+/// timings, or the error that stopped the scene. Never throws for a bad scene: that is an error
+/// record.
 /// @param job the batch
 /// @param index the scene, into job.scenes
+/// @param track a sequence's state (is_sequence): placed from, then told the instances of every
+///        model found in this frame (track_update); a frame that fails leaves it as it was. Only
+///        for a sequence, and required there.
 /// @return the record
-SceneRecord recognize_scene(const BatchJob& job, std::size_t index);
+/// @throws mfpc::Error for a job check_batch_job refuses, or a track missing or given where it is
+///         not one's
+SceneRecord recognize_scene(const BatchJob& job, std::size_t index, PlacementTrack* track = nullptr);
+
+/// Brings a sequence's track to where it stood after a frame whose record an earlier run wrote:
+/// the frame counted as placed and its instances followed, as recognize_scene left it (an error
+/// record leaves it as it was). Replaying the records of the frames before gives the track an
+/// uninterrupted run has, so a resumed sequence writes the records that run writes.
+/// @param job the batch (its models name the record's)
+/// @param record the frame's record line
+/// @param track the sequence's state
+/// @throws mfpc::Error for a record that is not a batch record or names a model the job lacks
+void replay_record(const BatchJob& job, const std::string& record, PlacementTrack& track);
 
 /// The JSONL file a batch appends to. Every record is one line, written by one write() of the
 /// whole line and flushed, so a batch killed at any moment leaves whole lines and at most the
@@ -91,6 +127,9 @@ public:
     const std::set<std::string>& done() const { return done_; }
     /// @return how many records the file held when it was opened (a resumed batch's earlier part)
     std::size_t kept() const { return kept_; }
+
+    /// @return the file's path
+    const std::filesystem::path& path() const { return path_; }
 
     /// Counts `scenes` as done as well (those another file already holds).
     /// @param scenes scene names as records give them
@@ -143,13 +182,21 @@ struct BatchShare {
 /// verified, written, through a bounded TBB pipeline (at most `in_flight` scenes at once, so memory
 /// stays flat whatever the number of scenes; 0: the threads available) that writes the records in
 /// the job's order.
+///
+/// A sequence (is_sequence) runs its frames one after another, in the job's order (each frame's
+/// placement follows the instances of the frames before; the work within a frame is still
+/// parallel), and cannot be shared between processes. Frames the output already holds are not run
+/// again: their records are replayed into the track (replay_record), so a resumed sequence
+/// writes what an uninterrupted one writes (timings aside).
 /// @param job the batch
 /// @param output where the records go
 /// @param share which scenes this process runs
 /// @param progress told after each record
 /// @param in_flight scenes in the pipeline at once (0: the worker threads)
 /// @return the summary of the scenes run now
-/// @throws mfpc::Error when a record cannot be written (a bad scene is a record, not an error)
+/// @throws mfpc::Error for a job check_batch_job refuses, a sequence shared between processes or
+///         whose done frames' records are not in the output, or when a record cannot be written
+///         (a bad scene is a record, not an error)
 BatchSummary run_batch(const BatchJob& job, BatchOutput& output, const BatchShare& share = {},
                        const BatchProgress& progress = {}, std::size_t in_flight = 0);
 

@@ -37,9 +37,10 @@ std::vector<ScalingPoint> run_scaling(const BatchJob& job, const std::vector<int
                                       const std::function<void(int)>& progress = {});
 
 /// The study as CSV, one row per thread count: throughput (scenes per second), speed-up and
-/// efficiency end to end against the first count, and per stage (read, describe, models) the
+/// efficiency end to end against the first count, and per stage (read, place, describe, models) the
 /// efficiency: the stage's summed time at the first count over its summed time here, scaled by
-/// the ratio of the counts (1 when the stage's work per scene does not grow with the threads).
+/// the ratio of the counts (1 when the stage's work per scene does not grow with the threads; 0 for
+/// a stage that took no time, as placement in a batch that does not place).
 /// @param points the study (the first point is the reference)
 /// @return CSV text with a header
 /// @throws mfpc::Error for no points

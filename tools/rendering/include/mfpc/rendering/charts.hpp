@@ -27,7 +27,8 @@ void write_experiment_charts(const std::filesystem::path& directory, const std::
 
 /// Draws a scaling study's charts with gnuplot into `directory` from its scaling.csv there (as
 /// mfpc::to_csv of the study writes it): scaling_throughput.png (scenes per second against threads),
-/// scaling_speedup.png (with the ideal line) and scaling_efficiency.png (end to end and per stage).
+/// scaling_speedup.png (with the ideal line) and scaling_efficiency.png (end to end and per stage;
+/// placement only when some row places, its efficiency being 0 on every row otherwise).
 /// @param directory the folder holding scaling.csv
 /// @throws mfpc::Error when the script cannot be written or gnuplot fails or cannot be started
 void write_scaling_charts(const std::filesystem::path& directory);
