@@ -272,6 +272,17 @@ double median_of(std::vector<double> values)
     return n % 2 ? values[n / 2] : 0.5 * (values[n / 2 - 1] + values[n / 2]);
 }
 
+// The placements that ran and their shared parameters (each run sets its own strategy).
+ordered_json placement_json(const DatasetOptions& options)
+{
+    if (options.placements.empty()) return nullptr;
+    ordered_json params = ordered_json::parse(to_json(options.placement));
+    params.erase("strategy");
+    ordered_json strategies = ordered_json::array();
+    for (const PlacementStrategy strategy : options.placements) strategies.push_back(to_string(strategy));
+    return {{"strategies", strategies}, {"params", params}};
+}
+
 std::string recall_text(double recall) { return std::isnan(recall) ? "-" : format_fixed(recall, 3); }
 
 std::string mebibytes(std::size_t bytes) { return format_fixed(double(bytes) / (1024.0 * 1024.0), 0); }
@@ -495,8 +506,7 @@ std::string to_json(const DatasetReport& report)
         {"params_source", report.params_source},
         {"params", ordered_json::parse(to_json(report.params))},
         {"min_visible_fraction", shortest_double(report.options.min_visible_fraction)},
-        {"placement", report.options.placements.empty() ? ordered_json(nullptr)
-                                                        : ordered_json::parse(to_json(report.options.placement))},
+        {"placement", placement_json(report.options)},
         {"tolerances",
          {{"correspondence_m", shortest_double(tolerances.correspondence_tolerance)},
           {"instance_m", shortest_double(tolerances.instance_translation)},

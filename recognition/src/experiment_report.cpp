@@ -49,6 +49,13 @@ ordered_json summary_json(const Summary& s)
 
 std::string mode_name(const ExperimentStrategy& s) { return s.serial ? "serial" : to_string(s.mode); }
 
+// The structures a strategy foveated with: its first run's placement, else its config's.
+std::size_t structures_of(const ExperimentStrategy& s, const StrategyOutcome& o)
+{
+    if (s.mode == FoveationMode::none) return 0;
+    return o.placement ? o.placement->config.structures.size() : s.fovea.structures.size();
+}
+
 // What every part of the report shares: each strategy's total-time summary and the reference's mean.
 struct Totals {
     std::vector<Summary> total;
@@ -133,7 +140,7 @@ std::string to_json(const ExperimentReport& report)
 std::string to_csv(const ExperimentReport& report)
 {
     const Totals totals(report);
-    std::string out = csv_row({"strategy", "mode", "points_before_downsampling", "redundant_points",
+    std::string out = csv_row({"strategy", "mode", "structures", "points_before_downsampling", "redundant_points",
                                "scene_points_used", "keypoints", "correspondences", "correct_correspondences",
                                "precision", "sensitivity", "instances_true", "instances_false", "instances_missed",
                                "runs", "time_mean_ms", "time_variance_ms2", "ci95_low_ms", "ci95_high_ms",
@@ -141,7 +148,9 @@ std::string to_csv(const ExperimentReport& report)
     for (std::size_t i = 0; i < report.outcomes.size(); ++i) {
         const StrategyOutcome& o = report.outcomes[i];
         const Summary& t = totals.total[i];
-        out += csv_row({o.name, mode_name(report.config.strategies[i]), std::to_string(o.counts.scene_points_foveated),
+        out += csv_row({o.name, mode_name(report.config.strategies[i]),
+                        std::to_string(structures_of(report.config.strategies[i], o)),
+                        std::to_string(o.counts.scene_points_foveated),
                         std::to_string(o.counts.redundant_points), std::to_string(o.counts.scene_points_used),
                         std::to_string(o.counts.scene_keypoints), std::to_string(o.counts.correspondences),
                         std::to_string(o.evaluation.correct_correspondences),
@@ -182,11 +191,13 @@ std::string to_markdown(const ExperimentReport& report)
         for (const Stage& stage : stages) md += " " + number(summarize_stage(o, stage.field).mean, 1) + " |";
         md += "\n";
     }
-    md += "\n| strategy | points (before downsampling) | points used | keypoints | correspondences | correct | "
-          "precision | sensitivity | true | false | missed |\n| --- | ---: | ---: | ---: | ---: | ---: | ---: | ---: | "
-          "---: | ---: | ---: |\n";
-    for (const StrategyOutcome& o : outcomes) {
-        md += "| " + o.name + " | " + group_digits(o.counts.scene_points_foveated) + " | " +
+    md += "\n| strategy | structures | points (before downsampling) | points used | keypoints | correspondences | "
+          "correct | precision | sensitivity | true | false | missed |\n| --- | ---: | ---: | ---: | ---: | ---: | ---: | "
+          "---: | ---: | ---: | ---: | ---: |\n";
+    for (std::size_t i = 0; i < outcomes.size(); ++i) {
+        const StrategyOutcome& o = outcomes[i];
+        md += "| " + o.name + " | " + std::to_string(structures_of(config.strategies[i], o)) + " | " +
+              group_digits(o.counts.scene_points_foveated) + " | " +
               group_digits(o.counts.scene_points_used) + " | " + group_digits(o.counts.scene_keypoints) + " | " +
               group_digits(o.counts.correspondences) + " | " + group_digits(o.evaluation.correct_correspondences) +
               " | " + number(o.evaluation.correspondence_precision, 3) + " | " +

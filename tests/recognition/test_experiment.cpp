@@ -32,8 +32,10 @@ TEST(ExperimentConfig, ShippedMilkPairConfigReads)
 {
     const ExperimentConfig config =
         read_experiment_config(std::filesystem::path(MFPC_SOURCE_DIR) / "examples/experiments/milk_pair.json");
-    ASSERT_EQ(config.strategies.size(), 7u);
+    ASSERT_EQ(config.strategies.size(), 9u);
     EXPECT_EQ(config.runs, 15);
+    EXPECT_EQ(config.strategies[7].placement, PlacementStrategy::segments);
+    EXPECT_EQ(config.strategies[8].placement, PlacementStrategy::oracle);
     EXPECT_EQ(config.strategies[size_t(config.reference)].name, "MFPC");
     EXPECT_EQ(config.strategies[4].structure, 1);
     EXPECT_TRUE(config.strategies[6].serial);

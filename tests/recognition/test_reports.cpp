@@ -262,7 +262,7 @@ TEST(ExperimentReport, EveryFormatSaysTheSameTimes)
 
     const std::string csv = to_csv(report);
     EXPECT_EQ(std::count(csv.begin(), csv.end(), '\n'), 3);
-    EXPECT_NE(csv.find("A,none,0,0,1000,"), std::string::npos) << csv;
+    EXPECT_NE(csv.find("A,none,0,0,0,1000,"), std::string::npos) << csv;
     EXPECT_NE(csv.find(",3,20.000,100.000,"), std::string::npos) << csv;  // runs, mean, variance of A
 
     const std::string md = to_markdown(report);

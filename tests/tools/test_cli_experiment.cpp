@@ -33,7 +33,8 @@ TEST(CliExperiment, WritesEveryReportFile)
                                                          "{\"name\": \"raw\", \"mode\": \"raw\", \"fovea\": \"" +
                                                          configs + "milk_pair_two.json\"},"
                                                          "{\"name\": \"MFPC\", \"mode\": \"mfpc\", \"fovea\": \"" +
-                                                         configs + "milk_pair_two.json\"}]}");
+                                                         configs + "milk_pair_two.json\"},"
+                                                         "{\"name\": \"auto\", \"mode\": \"mfpc\", \"fovea\": \"auto\"}]}");
     // A quote in the output folder's name once ended a string in the shell command that ran
     // gnuplot (and in its script): names reach neither now.
     const std::filesystem::path out = dir / "it's a report";
@@ -45,8 +46,16 @@ TEST(CliExperiment, WritesEveryReportFile)
         EXPECT_TRUE(std::filesystem::exists(out / file)) << file;
 
     const auto report = nlohmann::json::parse(slurp(out / "report.json"));
-    ASSERT_EQ(report["strategies"].size(), 3u);
+    ASSERT_EQ(report["strategies"].size(), 4u);
     EXPECT_EQ(report["reference"], "MFPC");
+    // The placed strategy: its structures, its placement a stage of every run, its time in the total.
+    const auto& placed = report["strategies"][3];
+    EXPECT_EQ(placed["fovea"], "auto");
+    EXPECT_EQ(placed["placement"]["strategy"], "segments");
+    EXPECT_GT(placed["placement"]["structures"].get<int>(), 0);
+    EXPECT_GT(placed["time_ms"]["place"]["mean"].get<double>(), 0.0);
+    EXPECT_TRUE(report["strategies"][2]["placement"].is_null());
+    EXPECT_EQ(report["strategies"][2]["time_ms"]["place"]["mean"].get<double>(), 0.0);
     for (const auto& strategy : report["strategies"]) {
         EXPECT_EQ(strategy["total_ms_per_run"].size(), 2u);
         const auto runs = strategy["total_ms_per_run"];

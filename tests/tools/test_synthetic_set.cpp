@@ -118,6 +118,35 @@ TEST(SyntheticSet, GeneratedEvaluatedAndReportedWithABrokenScene)
         EXPECT_EQ(std::count(row.begin(), row.end(), ','), std::count(header.begin(), header.end(), ',')) << row;
     }
     EXPECT_NE(to_table(report).find("error:"), std::string::npos);
+
+    // Automatic placements run beside, each as its own run with its own totals; the oracle
+    // places one structure per instance of the truth, and track follows the group's scenes.
+    set.scenes.pop_back();
+    options.plain = false;
+    options.foveated = false;
+    options.placements = {PlacementStrategy::segments, PlacementStrategy::oracle, PlacementStrategy::track};
+    const DatasetReport placed = evaluate_dataset(set, RecognitionParams{}, false, "", options);
+    ASSERT_EQ(placed.scenes.size(), 6u);
+    for (std::size_t i = 0; i < placed.scenes.size(); ++i) {
+        const SceneOutcome& s = placed.scenes[i];
+        EXPECT_EQ(s.strategy, std::vector<std::string>({"segments", "oracle", "track"})[i % 3]);
+        EXPECT_TRUE(s.error.empty()) << s.error;
+        EXPECT_TRUE(s.fallback.empty()) << s.fallback;
+        EXPECT_GT(s.structures, 0u);
+        EXPECT_GE(s.scene_ms, s.placement_ms + s.timings.total - 1e-9);
+        if (s.strategy == "oracle") EXPECT_EQ(s.structures, 1u);
+        if (s.strategy == "segments") EXPECT_GT(s.placement_ms, 0.0);
+    }
+    const std::vector<DatasetTally> rows = tally(placed);
+    ASSERT_FALSE(rows.empty());
+    EXPECT_EQ(rows[0].strategy, "segments");
+    EXPECT_EQ(rows[0].totals.scenes, 2u);
+    EXPECT_GT(rows[0].totals.structures, 0u);
+    const auto placed_json = nlohmann::json::parse(to_json(placed));
+    EXPECT_EQ(placed_json["placement"]["strategies"], nlohmann::json({"segments", "oracle", "track"}));
+    EXPECT_TRUE(placed_json["scenes"][0].contains("placement_ms"));
+    options.placements = {PlacementStrategy::grid, PlacementStrategy::grid};
+    EXPECT_THROW(evaluate_dataset(set, RecognitionParams{}, false, "", options), Error);
 }
 
 TEST(CliEvaluate, BadInputIsOneLine)
