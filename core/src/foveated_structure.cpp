@@ -136,4 +136,21 @@ void FoveatedStructure::set_fovea_center(const Eigen::Vector3f& center)
     }
 }
 
+FoveatedStructure structure_between(const Box& outer, const Box& fovea, int levels, const LevelDetail& detail,
+                                    std::string name)
+{
+    FoveatedStructure structure;
+    structure.levels = levels;
+    structure.outer_min = outer.min;
+    structure.outer_size = outer.size();
+    structure.fovea_size = fovea.size();
+    structure.set_fovea_center(fovea.center());
+    structure.density_outer = detail.density_outer;
+    structure.density_fovea = detail.density_fovea;
+    structure.keypoint_radius_outer = detail.keypoint_radius_outer;
+    structure.keypoint_radius_fovea = detail.keypoint_radius_fovea;
+    structure.name = std::move(name);
+    return structure;
+}
+
 }  // namespace mfpc

@@ -36,20 +36,13 @@ FoveatedStructure structure_around(const Box& object, const PlacementParams& par
                                    std::string name)
 {
     const Box fovea = grown(object, params.fovea_margin);
-    const Box outer = grown(fovea, params.outer_margin);
-    FoveatedStructure structure;
-    structure.levels = params.levels;
-    structure.outer_min = outer.min;
-    structure.outer_size = outer.size();
-    structure.fovea_size = fovea.size();
-    structure.set_fovea_center(fovea.center());
-    structure.density_fovea = scene.resolution;
-    structure.density_outer =
+    LevelDetail detail;
+    detail.density_fovea = scene.resolution;
+    detail.density_outer =
         scene.resolution > 0 ? params.outer_density_factor * scene.resolution : scene.keypoint_radius;
-    structure.keypoint_radius_fovea = scene.keypoint_radius;
-    structure.keypoint_radius_outer = params.outer_density_factor * scene.keypoint_radius;
-    structure.name = std::move(name);
-    return structure;
+    detail.keypoint_radius_fovea = scene.keypoint_radius;
+    detail.keypoint_radius_outer = params.outer_density_factor * scene.keypoint_radius;
+    return structure_between(grown(fovea, params.outer_margin), fovea, params.levels, detail, std::move(name));
 }
 
 std::vector<Point> finite_points(const PointCloud& scene)

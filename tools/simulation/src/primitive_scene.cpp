@@ -226,17 +226,7 @@ PrimitiveScene make_primitive_scene(const PrimitiveSceneParams& params)
         }
         outer_camera.min = object_camera.min.array() - 0.10f;
         outer_camera.max = object_camera.max.array() + 0.10f;
-        FoveatedStructure structure;
-        structure.levels = params.levels;
-        structure.outer_min = outer_camera.min;
-        structure.outer_size = outer_camera.size();
-        structure.fovea_size = object_camera.size();
-        structure.set_fovea_center(object_camera.center());
-        structure.density_outer = 0.02f;
-        structure.density_fovea = 0.005f;
-        structure.keypoint_radius_outer = 0.03f;
-        structure.keypoint_radius_fovea = 0.01f;
-        scene.fovea.structures.push_back(structure);
+        scene.fovea.structures.push_back(structure_between(outer_camera, object_camera, params.levels, LevelDetail{}));
 
         const char* shape = primitive.kind == Primitive::Kind::box        ? "box"
                             : primitive.kind == Primitive::Kind::cylinder ? "cylinder"

@@ -312,18 +312,9 @@ namespace {
 // grown by 11 cm; the densities and radii of the shipped milk-carton configs.
 FoveatedStructure structure_around(const Box& object, int levels, const std::string& name)
 {
-    FoveatedStructure structure;
-    structure.levels = levels;
-    structure.outer_min = object.min.array() - 0.11f;
-    structure.outer_size = object.size().array() + 0.22f;
-    structure.fovea_size = object.size().array() + 0.02f;
-    structure.set_fovea_center(object.center());
-    structure.density_outer = 0.02f;
-    structure.density_fovea = 0.005f;
-    structure.keypoint_radius_outer = 0.03f;
-    structure.keypoint_radius_fovea = 0.01f;
-    structure.name = name;
-    return structure;
+    const Box outer{object.min.array() - 0.11f, object.max.array() + 0.11f};
+    const Box fovea{object.min.array() - 0.01f, object.max.array() + 0.01f};
+    return structure_between(outer, fovea, levels, LevelDetail{}, name);
 }
 
 }  // namespace

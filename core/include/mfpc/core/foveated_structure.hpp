@@ -87,6 +87,27 @@ struct FoveatedStructure {
     Eigen::Vector3f fovea_center() const { return outer_min + 0.5f * outer_size + fovea_offset; }
 };
 
+/// @brief The per-level detail of a structure: densities d_0, d_m and keypoint radii r_0, r_m
+/// (defaults: those of the shipped milk-carton configs).
+struct LevelDetail {
+    float density_outer = 0.02f;          ///< d_0 (metres).
+    float density_fovea = 0.005f;         ///< d_m (metres).
+    float keypoint_radius_outer = 0.03f;  ///< r_0 (metres).
+    float keypoint_radius_fovea = 0.01f;  ///< r_m (metres).
+};
+
+/// @brief The structure of m levels between two boxes: `outer` is level 0, `fovea` level m (its
+/// centre set with set_fovea_center, as the config reader's "fovea_center"). Neither is checked
+/// here: level_box refuses a fovea that does not fit.
+/// @param outer The outer box.
+/// @param fovea The fovea box, inside `outer`.
+/// @param levels m.
+/// @param detail The densities and keypoint radii.
+/// @param name The structure's label.
+/// @return The structure.
+FoveatedStructure structure_between(const Box& outer, const Box& fovea, int levels, const LevelDetail& detail,
+                                    std::string name = {});
+
 /// @brief A point's place after foveation: which structure and level it was kept in.
 ///
 /// -1 means "none" (a point outside every structure, or a cloud that was not foveated). Under
