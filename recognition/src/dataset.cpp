@@ -385,7 +385,8 @@ DatasetReport evaluate_dataset(const Dataset& dataset, const RecognitionParams& 
     for (const DatasetScene& scene : dataset.scenes)
         total += options.plain + (options.foveated && !scene.fovea.empty()) + options.placements.size();
     std::size_t done = 0;
-    // track follows each group's scenes as the frames of one sequence (and a model's, when they differ).
+    // track follows each group's scenes as the frames of one sequence (and a model's, when they
+    // differ); a scene of no group is a sequence of its own.
     std::map<std::pair<std::string, std::string>, PlacementTrack> tracks;
     for (const DatasetScene& scene : dataset.scenes) {
         const ModelOutcome& model = report.models[model_of(scene.model)];
@@ -395,7 +396,9 @@ DatasetReport evaluate_dataset(const Dataset& dataset, const RecognitionParams& 
         if (options.foveated && !scene.fovea.empty()) runs.push_back({true, std::nullopt, nullptr});
         for (const PlacementStrategy strategy : options.placements)
             runs.push_back({false, strategy,
-                            strategy == PlacementStrategy::track ? &tracks[{scene.group, scene.model}] : nullptr});
+                            strategy == PlacementStrategy::track
+                                ? &tracks[{scene.group.empty() ? "scene " + scene.name : "group " + scene.group, scene.model}]
+                                : nullptr});
         for (const SceneRun& run : runs) {
             report.scenes.push_back(run_scene(scene, loaded ? &*loaded : nullptr, model.error, params, run, options));
             if (progress) progress(++done, total, scene.name);

@@ -144,22 +144,23 @@ std::vector<std::vector<std::uint32_t>> clusters_of(std::span<const Point> point
         while (parent[i] != i) i = parent[i] = parent[parent[i]];
         return i;
     };
-    auto cell_of = [&](const Point& p) {
-        return Eigen::Vector3i((p / gap).array().floor().cast<int>());
-    };
-    auto key_of = [](const Eigen::Vector3i& c) {
-        return (std::uint64_t(std::uint32_t(c.x()) & 0x1fffff) << 42) |
-               (std::uint64_t(std::uint32_t(c.y()) & 0x1fffff) << 21) | std::uint64_t(std::uint32_t(c.z()) & 0x1fffff);
+    // Cells in 64 bits: a point voxel_grid accepts may lie 2^30 voxels out, beyond an int's cells.
+    using Cell = Eigen::Matrix<std::int64_t, 3, 1>;
+    auto cell_of = [&](const Point& p) { return Cell((p.cast<double>() / double(gap)).array().floor().cast<std::int64_t>()); };
+    // Cells that share a key share a list; every pair in it is checked by distance all the same.
+    auto key_of = [](const Cell& c) {
+        return (std::uint64_t(c.x()) & 0x1fffff) << 42 | (std::uint64_t(c.y()) & 0x1fffff) << 21 |
+               (std::uint64_t(c.z()) & 0x1fffff);
     };
     std::unordered_map<std::uint64_t, std::vector<std::uint32_t>> cells;
     for (std::uint32_t i = 0; i < members.size(); ++i) cells[key_of(cell_of(points[members[i]]))].push_back(i);
     for (std::uint32_t i = 0; i < members.size(); ++i) {
         const Point& p = points[members[i]];
-        const Eigen::Vector3i c = cell_of(p);
+        const Cell c = cell_of(p);
         for (int dx = -1; dx <= 1; ++dx)
             for (int dy = -1; dy <= 1; ++dy)
                 for (int dz = -1; dz <= 1; ++dz) {
-                    const auto it = cells.find(key_of(c + Eigen::Vector3i(dx, dy, dz)));
+                    const auto it = cells.find(key_of(c + Cell(dx, dy, dz)));
                     if (it == cells.end()) continue;
                     for (std::uint32_t j : it->second) {
                         if (j <= i || ((points[members[j]] - p).cwiseAbs().array() > gap).any()) continue;
@@ -259,6 +260,8 @@ std::vector<Box> coarse_hypotheses(const PointCloud& scene, std::span<const Mode
                                    const RecognitionParams& recognition, const PlacementParams& params,
                                    PlacementResult& result)
 {
+    if (std::none_of(scene.points.begin(), scene.points.end(), [](const Point& p) { return p.allFinite(); }))
+        return {};
     RecognitionParams coarse = recognition;
     coarse.scene.resolution *= params.coarse_factor;
     coarse.scene.keypoint_radius *= params.coarse_factor;
@@ -301,14 +304,14 @@ std::vector<Box> track_objects(std::span<const Point> voxels, std::span<const Mo
     result.searched = followed.empty() || track.frame % std::uint64_t(params.track_refresh) == 0;
     ++track.frame;
     const std::vector<Box> clusters = segment_clusters(voxels, models, params, result);
-    if (result.searched) return clusters;
     // A cluster is the followed object when its centre lies in the object's grown box: objects
     // stand a centimetre apart on a table, so a neighbour's box meets the grown box but its centre
     // lies beyond it.
     auto centred_in = [](const Box& cluster, const Box& box) { return box.contains(cluster.center()); };
     std::vector<Box> objects;
     for (const Box& cluster : clusters)
-        if (std::any_of(followed.begin(), followed.end(), [&](const Box& box) { return centred_in(cluster, box); }))
+        if (result.searched ||
+            std::any_of(followed.begin(), followed.end(), [&](const Box& box) { return centred_in(cluster, box); }))
             objects.push_back(cluster);
     for (const Box& box : followed)
         if (std::none_of(clusters.begin(), clusters.end(), [&](const Box& cluster) { return centred_in(cluster, box); }))
@@ -370,8 +373,8 @@ void check_placement_params(const PlacementParams& params, const std::string& so
     if (!(params.coarse_factor >= 1 && std::isfinite(params.coarse_factor)))
         throw Error(source + ": coarse_factor", "must be at least 1 and finite");
     at_least(params.coarse_hypotheses, 1, 100000, "coarse_hypotheses");
-    if (!(params.grid_cell >= 0 && std::isfinite(params.grid_cell)))
-        throw Error(source + ": grid_cell", "must be finite and not negative");
+    if (!(params.grid_cell == 0 || (params.grid_cell >= params.voxel && std::isfinite(params.grid_cell))))
+        throw Error(source + ": grid_cell", "must be 0 (the largest model's extent) or a finite size of at least voxel");
     at_least(params.track_refresh, 1, 1000000, "track_refresh");
     if (!(params.track_margin >= 0 && std::isfinite(params.track_margin)))
         throw Error(source + ": track_margin", "must be finite and not negative");
@@ -400,7 +403,12 @@ PlacementResult place_foveae(const PointCloud& scene, std::span<const Model* con
     if (models.empty()) throw Error("placement", "needs at least one model");
     for (const Model* model : models) {
         if (!model) throw Error("placement", "a model is null");
-        if (model->points.empty()) throw Error(model->source.empty() ? "placement" : model->source, "the model has no points");
+        const std::string name = model->source.empty() ? "placement" : model->source;
+        if (model->points.empty()) throw Error(name, "the model has no points");
+        // The extent sizes supports, clusters and grid cells: a model no larger than a voxel has none.
+        if (!(model_extent(*model) > params.voxel))
+            throw Error(name, "the model is no larger than placement's voxel (" + format_number(params.voxel) +
+                                  " m): nothing to size structures by");
     }
     if (params.strategy == PlacementStrategy::track && !track)
         throw Error("placement", "track needs the state carried from frame to frame");
@@ -488,6 +496,7 @@ PlacementResult place_foveae(const PointCloud& scene, std::span<const Model* con
 void track_update(PlacementTrack& track, std::span<const Model* const> models, std::span<const PlacedInstance> instances,
                   int refresh)
 {
+    if (refresh < 1 || refresh > 1000000) throw Error("placement: track_refresh", "must lie in 1..1000000");
     const std::uint64_t frame = track.frame == 0 ? 0 : track.frame - 1;
     std::vector<std::pair<Box, std::uint64_t>> followed;
     std::vector<Box> found;

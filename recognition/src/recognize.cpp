@@ -116,7 +116,7 @@ std::unique_ptr<DescribedScene> describe_scene(const PointCloud& scene, const Re
             const float d = structure.density(structure.levels);
             if (d > 0) finest = finest > 0 ? std::min(finest, d) : d;
         }
-        foveated_grid.emplace(used->points, finest > 0 ? 3.0f * finest : normal_grid_cell);
+        foveated_grid.emplace(used->points, std::max(normal_grid_cell, 3.0f * finest));
     }
     feature_timings.normals_ms += elapsed_ms(t);
     if (!resampled) {

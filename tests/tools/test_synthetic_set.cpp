@@ -134,8 +134,12 @@ TEST(SyntheticSet, GeneratedEvaluatedAndReportedWithABrokenScene)
         EXPECT_TRUE(s.fallback.empty()) << s.fallback;
         EXPECT_GT(s.structures, 0u);
         EXPECT_GE(s.scene_ms, s.placement_ms + s.timings.total - 1e-9);
-        if (s.strategy == "oracle") EXPECT_EQ(s.structures, 1u);
-        if (s.strategy == "segments") EXPECT_GT(s.placement_ms, 0.0);
+        if (s.strategy == "oracle") {
+            EXPECT_EQ(s.structures, 1u);
+        }
+        if (s.strategy == "segments") {
+            EXPECT_GT(s.placement_ms, 0.0);
+        }
     }
     const std::vector<DatasetTally> rows = tally(placed);
     ASSERT_FALSE(rows.empty());

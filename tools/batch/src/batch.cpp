@@ -109,6 +109,11 @@ void replay_record(const BatchJob& job, const std::string& record, PlacementTrac
         throw Error("batch", "not a batch record: " + record.substr(0, 80));
     const std::string scene = json["scene"].get<std::string>();
     if (json.value("status", "") != "ok") return;  // a failed frame left the track as it was
+    // Only a sequence's own records rebuild its track: another batch's instances are not what
+    // this one would have followed.
+    const nlohmann::json* placement = json.contains("placement") ? &json["placement"] : nullptr;
+    if (!placement || !placement->is_object() || placement->value("strategy", "") != "track")
+        throw Error(scene, "the record was not written by a --sequence batch: its track cannot be rebuilt");
     const std::vector<const Model*> models = model_pointers(job);
     std::vector<PlacedInstance> found;
     try {

@@ -1,3 +1,4 @@
+#include <algorithm>
 #include <filesystem>
 #include <fstream>
 #include <iostream>
@@ -6,6 +7,7 @@
 
 #include "cli_commands.hpp"
 #include "mfpc/core/detail/atomic_file.hpp"
+#include "mfpc/core/error.hpp"
 #include "mfpc/recognition/dataset.hpp"
 #include "mfpc/recognition/params.hpp"
 #include "mfpc/recognition/placement.hpp"
@@ -31,8 +33,15 @@ void run_evaluate(const EvaluateOptions& options, const GlobalOptions& global)
     run.plain = options.runs != "fovea";
     run.foveated = options.runs != "plain";
     run.min_visible_fraction = options.min_visible;
-    for (const std::string& name : split_list(options.placements))
-        run.placements.push_back(parse_placement_strategy(name, "--placement"));
+    for (const std::string& name : split_list(options.placements)) {
+        try {
+            run.placements.push_back(parse_placement_strategy(name, "--placement"));
+        } catch (const Error&) {
+            throw CLI::ValidationError("--placement", "'" + name + "' is not one of segments, coarse, grid, track, oracle");
+        }
+        if (std::count(run.placements.begin(), run.placements.end(), run.placements.back()) > 1)
+            throw CLI::ValidationError("--placement", "'" + name + "' given twice");
+    }
     Progress bar;
     const DatasetReport report =
         evaluate_dataset(dataset, params, !options.params.empty(), options.params, run,

@@ -62,6 +62,8 @@ void run_foveate(const FoveateOptions& options, const GlobalOptions& global)
     if (automatic && options.placement.strategy == "oracle")
         throw CLI::ValidationError("--placement oracle", "needs a ground truth: use `mfpc recognize --ground-truth`");
     if (automatic && options.strict) throw CLI::ValidationError("--strict", "does not apply to --config auto");
+    if (automatic && mode == FoveationMode::single)
+        throw CLI::ValidationError("--mode single", "needs a config file to choose its structure from, not --config auto");
 
     Stopwatch clock;
     Stopwatch total_clock;

@@ -41,6 +41,9 @@ void run_recognize(const RecognizeOptions& options, const GlobalOptions& global)
     if (automatic && options.strict) throw CLI::ValidationError("--strict", "does not apply to --fovea auto");
     if (automatic && options.placement.strategy == "oracle" && options.ground_truth.empty())
         throw CLI::ValidationError("--placement oracle", "needs --ground-truth");
+    // The structures are only known once placed: a mode that names one of them cannot be checked.
+    if (automatic && options.mode == "single")
+        throw CLI::ValidationError("--mode single", "needs a config file to choose its structure from, not --fovea auto");
     const FoveationMode mode = parse_foveation_mode(options.mode.empty() ? (options.fovea.empty() ? "none" : "mfpc")
                                                                          : options.mode,
                                                     "--mode");
@@ -92,17 +95,24 @@ void run_recognize(const RecognizeOptions& options, const GlobalOptions& global)
     for (const Model& model : models) pointers.push_back(&model);
     std::optional<PlacementResult> placement;
     if (automatic) {
-        // The oracle places around the ground truth's instances: those of the first model.
+        // The oracle places around the ground truth's instances, of the model it was written for.
         std::vector<PlacedInstance> truth_instances;
-        if (truth)
-            for (const GroundTruthInstance& instance : truth->instances) truth_instances.push_back({0, instance.transform});
+        if (truth) {
+            std::size_t of = models.size();
+            for (std::size_t m = 0; m < models.size() && of == models.size(); ++m)
+                if (models.size() == 1 || truth_is_of(truth->model, reports[m].model_cached ? models[m].source
+                                                                                              : reports[m].model_file))
+                    of = m;
+            if (of == models.size() && options.placement.strategy == "oracle")
+                throw CLI::ValidationError("--placement oracle", "the ground truth is of " + truth->model +
+                                                                     ", none of the models given");
+            for (const GroundTruthInstance& instance : truth->instances)
+                truth_instances.push_back({of, instance.transform});
+            if (of == models.size()) truth_instances.clear();
+        }
         placement = place_for_command(scene, pointers, params, options.placement, truth_instances);
         config = placement->config;
         if (!placement->fallback.empty()) warnings.push_back(placement->fallback);
-        if (mode == FoveationMode::single && single_structure >= int(config.structures.size()) && !config.structures.empty())
-            throw CLI::ValidationError("--structure", "structure " + std::to_string(single_structure) +
-                                                          " does not exist: placement made " +
-                                                          std::to_string(config.structures.size()));
     }
     // A placement that placed nothing runs the plain pipeline, as its warning says.
     const bool foveated = !options.fovea.empty() && !config.structures.empty();
@@ -115,7 +125,8 @@ void run_recognize(const RecognizeOptions& options, const GlobalOptions& global)
         for (std::size_t m = 0; m < models.size(); ++m) reports[m].result = std::move(results[m]);
     }
     if (foveation.config != nullptr && mode != FoveationMode::none && reports[0].result.counts.scene_points_used == 0)
-        warn("no point of the scene lies inside any structure of " + options.fovea + ": nothing to recognise");
+        warn("no point of the scene lies inside any structure of " +
+             (automatic ? std::string("the placement") : options.fovea) + ": nothing to recognise");
     for (std::size_t m = 0; m < models.size(); ++m) {
         RecognitionReport& report = reports[m];
         const std::string model_file = report.model_cached ? models[m].source : report.model_file;

@@ -164,8 +164,10 @@ std::string to_table(const DemoRun& run)
     }
     out += "auto: structures placed from the scene and the model (segments); oracle: placed the same way around "
            "the ground truth's instances; times include placement\n";
+    const bool placed = run.strategies.size() > 1 && run.strategies[1].placement &&
+                        !run.strategies[1].placement->config.structures.empty();
     out += "\nwrote " + run.directory.string() + "/: scene.pcd scene.gt.json labels.png scene.json fovea.json, " +
-           "fovea_auto.json (the placed structures), model clouds, " + p.object +
+           (placed ? "fovea_auto.json (the placed structures), " : "") + "model clouds, " + p.object +
            ".mfpcm, and demo.png (the placed structures, instances found in them in red)\n" + "total " +
            format_fixed((run.synthesize_ms + run.recognize_ms + run.render_ms) / 1000.0, 1) + " s\n";
     return out;

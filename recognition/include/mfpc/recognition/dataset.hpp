@@ -67,7 +67,8 @@ struct DatasetOptions {
     bool plain = true;     ///< Every scene without foveation.
     bool foveated = true;  ///< Every scene that has a fovea config, foveated (mode mfpc).
     /// Every scene also foveated by each of these automatic placements (a run named after the
-    /// strategy; track follows the scenes of one group in the set's order, as frames). oracle
+    /// strategy; track follows the scenes of one group in the set's order, as frames, and takes a
+    /// scene of no group alone). oracle
     /// places from the ground truth: a negative scene gets no structure and nothing is found.
     std::vector<PlacementStrategy> placements;
     PlacementParams placement;  ///< The placements' parameters (each run sets its own strategy).

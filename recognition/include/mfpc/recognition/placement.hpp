@@ -70,7 +70,7 @@ struct PlacementParams {
     float outer_margin = 0.08f;
     /// The outer density d_0 is this many times the fovea's d_m (the scene's working resolution),
     /// and the outer keypoint radius r_0 this many times r_m (the scene's keypoint radius):
-    /// context, not detail (the shipped configs: 2 cm and 3 cm at the outer level). At resolution
+    /// context, not detail (2 cm and 6 cm by default; the shipped configs: 2 cm and 3 cm). At resolution
     /// 0 (the cloud as sampled) every point of the fovea is kept and d_0 is the scene's keypoint
     /// radius.
     float outer_density_factor = 4.0f;
@@ -157,9 +157,10 @@ struct PlacementResult {
     /// Empty when structures were placed; else why none were, and that the scene runs plain.
     std::string fallback;
     std::size_t planes = 0;              ///< Supporting planes removed (segments, track).
-    std::size_t clusters = 0;            ///< Clusters of at least min_cluster_voxels (segments, track).
+    /// Clusters large enough to recognise (min_cluster_voxels and min_cluster_share; segments, track).
+    std::size_t clusters = 0;
     std::size_t clusters_too_large = 0;  ///< Of those, the ones longer than an object (no structure).
-    std::size_t followed = 0;            ///< track: structures on instances of the frames before.
+    std::size_t followed = 0;            ///< track: instances of the frames before that this frame follows.
     bool searched = false;               ///< track: whether this frame ran a segments pass for new objects.
     std::size_t hypotheses = 0;          ///< coarse: hypotheses of the coarse pass.
     /// Of the working cloud's voxels, the fraction inside some fovea (segments, coarse, track;
@@ -185,22 +186,24 @@ struct PlacementResult {
 /// @param truth oracle: the instances to place structures around; unused by the others.
 /// @param track track: the state carried from frame to frame; null for the other strategies.
 /// @return The config and how it was found. A scene where nothing can be placed gives no
-/// structures and says why in `fallback`; it is never an error.
+/// structures and says why in `fallback`: no point, no plane, no cluster or no hypothesis is never
+/// an error.
 /// @throws mfpc::Error for parameters out of range (check_placement_params,
-/// check_recognition_params), no models or a null one, a model without points, track without a
+/// check_recognition_params), no models or a null one, a model without points or no larger than
+/// `voxel`, a point too far out for voxel_grid (2^30 voxels), track without a
 /// state, or an oracle instance naming a model not given.
 PlacementResult place_foveae(const PointCloud& scene, std::span<const Model* const> models,
                              const RecognitionParams& recognition, const PlacementParams& params,
                              std::span<const PlacedInstance> truth = {}, PlacementTrack* track = nullptr);
 
 /// @brief Tells track what recognition found in the frame just placed: each instance is followed
-/// from its box (replacing the followed box it overlaps), and one not found again for more than
+/// from its box (replacing the followed box it overlaps), and one not found again for
 /// track_refresh frames is dropped.
 /// @param track The state place_foveae(track) updated for this frame.
 /// @param models The models, as given to place_foveae.
 /// @param instances The instances found in the frame.
-/// @throws mfpc::Error for an instance naming a model not given.
 /// @param refresh PlacementParams::track_refresh of the placement.
+/// @throws mfpc::Error for an instance naming a model not given, or a refresh outside 1..1000000.
 void track_update(PlacementTrack& track, std::span<const Model* const> models,
                   std::span<const PlacedInstance> instances, int refresh = PlacementParams{}.track_refresh);
 

@@ -47,7 +47,7 @@ struct DemoRun {
     std::vector<DemoStrategy> strategies;  ///< Plain, auto, then oracle.
     std::filesystem::path image;         ///< The picture, once render_demo drew it.
     double synthesize_ms = 0;            ///< Synthesizing the scene and writing its dataset.
-    double recognize_ms = 0;             ///< Recognising with both strategies.
+    double recognize_ms = 0;             ///< Placing and recognising, every strategy.
     double render_ms = 0;                ///< Drawing the picture.
 };
 
