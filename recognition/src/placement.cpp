@@ -45,13 +45,14 @@ FoveatedStructure structure_around(const Box& object, const PlacementParams& par
     return structure_between(grown(fovea, params.outer_margin), fovea, params.levels, detail, std::move(name));
 }
 
-std::vector<Point> finite_points(const PointCloud& scene)
+// The cloud's finite points: the points themselves, as PointCloud holds them; a filtered copy in
+// `storage` only for a cloud built around the reader that holds some that are not.
+std::span<const Point> finite_points(const PointCloud& scene, std::vector<Point>& storage)
 {
-    std::vector<Point> points;
-    points.reserve(scene.size());
-    for (const Point& p : scene.points)
-        if (p.allFinite()) points.push_back(p);
-    return points;
+    const auto finite = [](const Point& p) { return p.allFinite(); };
+    if (std::all_of(scene.points.begin(), scene.points.end(), finite)) return scene.points;
+    std::copy_if(scene.points.begin(), scene.points.end(), std::back_inserter(storage), finite);
+    return storage;
 }
 
 struct Plane {
@@ -260,8 +261,6 @@ std::vector<Box> coarse_hypotheses(const PointCloud& scene, std::span<const Mode
                                    const RecognitionParams& recognition, const PlacementParams& params,
                                    PlacementResult& result)
 {
-    if (std::none_of(scene.points.begin(), scene.points.end(), [](const Point& p) { return p.allFinite(); }))
-        return {};
     RecognitionParams coarse = recognition;
     coarse.scene.resolution *= params.coarse_factor;
     coarse.scene.keypoint_radius *= params.coarse_factor;
@@ -422,7 +421,8 @@ PlacementResult place_foveae(const PointCloud& scene, std::span<const Model* con
     // The working cloud: one point per voxel, so every count and distance below is metric.
     std::vector<Point> voxels;
     if (params.strategy != PlacementStrategy::oracle) {
-        const std::vector<Point> points = finite_points(scene);
+        std::vector<Point> storage;
+        const std::span<const Point> points = finite_points(scene, storage);
         if (!points.empty()) voxels = voxel_grid(points, params.voxel).centroids;
     }
     std::vector<Box> objects;
@@ -437,7 +437,8 @@ PlacementResult place_foveae(const PointCloud& scene, std::span<const Model* con
         label = "cluster";
         break;
     case PlacementStrategy::coarse:
-        objects = coarse_hypotheses(scene, models, recognition, params, result);
+        // A cloud without a finite point has nothing to recognise: no hypothesis.
+        if (!voxels.empty()) objects = coarse_hypotheses(scene, models, recognition, params, result);
         label = "hypothesis";
         break;
     case PlacementStrategy::grid:

@@ -93,16 +93,19 @@ void run_recognize(const RecognizeOptions& options, const GlobalOptions& global)
 
     std::vector<const Model*> pointers;
     for (const Model& model : models) pointers.push_back(&model);
+    // Which model the ground truth scores, and the oracle places: the one it was written for (a
+    // cache's by the cloud it was made from), or the only one.
+    auto scored_by_truth = [&](std::size_t m) {
+        const std::string model_file = reports[m].model_cached ? models[m].source : reports[m].model_file;
+        return truth && (models.size() == 1 || truth_is_of(truth->model, model_file));
+    };
     std::optional<PlacementResult> placement;
     if (automatic) {
         // The oracle places around the ground truth's instances, of the model it was written for.
         std::vector<PlacedInstance> truth_instances;
         if (truth) {
-            std::size_t of = models.size();
-            for (std::size_t m = 0; m < models.size() && of == models.size(); ++m)
-                if (models.size() == 1 || truth_is_of(truth->model, reports[m].model_cached ? models[m].source
-                                                                                              : reports[m].model_file))
-                    of = m;
+            std::size_t of = 0;
+            while (of < models.size() && !scored_by_truth(of)) ++of;
             if (of == models.size() && options.placement.strategy == "oracle")
                 throw CLI::ValidationError("--placement oracle", "the ground truth is of " + truth->model +
                                                                      ", none of the models given");
@@ -129,8 +132,7 @@ void run_recognize(const RecognizeOptions& options, const GlobalOptions& global)
              (automatic ? std::string("the placement") : options.fovea) + ": nothing to recognise");
     for (std::size_t m = 0; m < models.size(); ++m) {
         RecognitionReport& report = reports[m];
-        const std::string model_file = report.model_cached ? models[m].source : report.model_file;
-        if (truth && (models.size() == 1 || truth_is_of(truth->model, model_file))) {
+        if (scored_by_truth(m)) {
             report.evaluation = evaluate(report.result, models[m], *truth, report.evaluation_params);
             report.ground_truth_file = options.ground_truth;
         }
