@@ -85,8 +85,9 @@ std::size_t max_text_rows(std::size_t bytes, std::size_t values_per_row)
     return bytes / (2 * std::max<std::size_t>(values_per_row, 1)) + 1;
 }
 
-FiniteCloudBuilder::FiniteCloudBuilder(bool with_normals, bool with_colors, std::size_t expected_points)
-    : with_normals_(with_normals), with_colors_(with_colors)
+FiniteCloudBuilder::FiniteCloudBuilder(bool with_normals, bool with_colors, std::size_t expected_points,
+                                       std::size_t* zero_points)
+    : with_normals_(with_normals), with_colors_(with_colors), zero_points_(zero_points)
 {
     cloud_.points.reserve(expected_points);
     cloud_.source_index.reserve(expected_points);
@@ -98,7 +99,15 @@ PointCloud FiniteCloudBuilder::finish(std::uint32_t width, std::uint32_t height,
                                       const std::string& where)
 {
     if (cloud_.points.empty()) {
-        throw Error(where, "no finite points (all " + std::to_string(points_in) + " have a NaN or infinite x, y or z)");
+        throw Error(where, zero_points_ && *zero_points_ > 0
+                               ? "no valid points (each of the " + std::to_string(points_in) +
+                                     " has a NaN or infinite x, y or z, or is an invalid pixel at (0, 0, 0))"
+                               : "no finite points (all " + std::to_string(points_in) +
+                                     " have a NaN or infinite x, y or z)");
+    }
+    if (beyond_range_) {
+        throw Error(where, "point " + std::to_string(*beyond_range_) + " has a coordinate beyond ±" +
+                               max_coordinate_text + ", the supported range");
     }
     // Positions are added in increasing order, so keeping all of them means the identity.
     if (cloud_.points.size() == points_in) {

@@ -79,26 +79,39 @@ std::size_t max_text_rows(std::size_t bytes, std::size_t values_per_row);
 // finite; its normal and colour are kept as read (a non-finite normal stays non-finite, so
 // callers see exactly what the file said). The source index records the file position of each
 // kept point and is left empty when every point was kept (the identity, see PointCloud).
+//
+// Given `zero_points` (an organized file), a pixel at exactly (0, 0, 0) is an invalid pixel, as
+// NaN is: a depth sensor cannot measure its own centre, and drivers that write zeros for missing
+// depth would otherwise pile thousands of points onto one spot. They are counted there.
+// A finite point beyond ±max_coordinate is an error, raised by finish().
 class FiniteCloudBuilder {
 public:
-    FiniteCloudBuilder(bool with_normals, bool with_colors, std::size_t expected_points);
+    FiniteCloudBuilder(bool with_normals, bool with_colors, std::size_t expected_points,
+                       std::size_t* zero_points = nullptr);
 
     void add(std::uint32_t source_position, const Point& point, const Point& normal, Rgb color)
     {
         if (!point.allFinite()) return;
+        if (zero_points_ && point.x() == 0.0f && point.y() == 0.0f && point.z() == 0.0f) {
+            ++*zero_points_;
+            return;
+        }
+        if (!within_coordinate_range(point) && !beyond_range_) beyond_range_ = source_position;
         cloud_.points.push_back(point);
         if (with_normals_) cloud_.normals.push_back(normal);
         if (with_colors_) cloud_.colors.push_back(color);
         cloud_.source_index.push_back(source_position);
     }
 
-    // Throws "no finite points" when nothing was kept.
+    // Throws "no finite points" when nothing was kept, and for a point beyond the range.
     PointCloud finish(std::uint32_t width, std::uint32_t height, std::size_t points_in, const std::string& where);
 
 private:
     PointCloud cloud_;
     bool with_normals_;
     bool with_colors_;
+    std::size_t* zero_points_;
+    std::optional<std::uint32_t> beyond_range_;  // file position of the first point beyond it
 };
 
 // `file` is the whole file; `where` names it in errors.

@@ -16,6 +16,7 @@
 #include <charconv>
 #include <cstring>
 #include <limits>
+#include <memory>
 #include <optional>
 #include <string>
 #include <string_view>
@@ -311,10 +312,16 @@ struct FieldAccess {
     float as_float(std::size_t i) const { return load_as_float(at(i), type, false); }
 };
 
+// The zero counter for an organized file's builder (see FiniteCloudBuilder), none for a list.
+std::size_t* organized_zeros(const PcdHeader& header, std::size_t& zero_points)
+{
+    return header.height > 1 ? &zero_points : nullptr;
+}
+
 // Keeps the finite points of binary data. `by_field` is true for the structure-of-arrays order of
 // binary_compressed (every x, then every y, ...), false for records (x y z ... of point 0, then 1).
 PointCloud gather_binary(const PcdHeader& header, const PcdLayout& layout, const std::uint8_t* data, bool by_field,
-                         const std::string& where)
+                         std::size_t& zero_points, const std::string& where)
 {
     const auto access = [&](std::size_t f) {
         const PcdField& field = header.fields[f];
@@ -333,7 +340,8 @@ PointCloud gather_binary(const PcdHeader& header, const PcdLayout& layout, const
     FieldAccess color{};
     if (layout.color) color = access(*layout.color);
 
-    FiniteCloudBuilder builder(layout.normal.has_value(), layout.color.has_value(), header.points);
+    FiniteCloudBuilder builder(layout.normal.has_value(), layout.color.has_value(), header.points,
+                               organized_zeros(header, zero_points));
     const Point no_normal = Point::Zero();
     for (std::size_t i = 0; i < header.points; ++i) {
         const Point point(x.as_float(i), y.as_float(i), z.as_float(i));
@@ -346,6 +354,7 @@ PointCloud gather_binary(const PcdHeader& header, const PcdLayout& layout, const
 }
 
 PointCloud read_pcd_binary(const PcdHeader& header, const PcdLayout& layout, std::span<const std::uint8_t> data,
+                               std::size_t& zero_points,
                            const std::string& where)
 {
     const auto needed = checked_product(header.points, header.point_size);
@@ -354,10 +363,11 @@ PointCloud read_pcd_binary(const PcdHeader& header, const PcdLayout& layout, std
                                std::to_string(header.points) + " points of " + std::to_string(header.point_size) +
                                " bytes" + (needed ? " (" + std::to_string(*needed) + " needed)" : std::string()));
     }
-    return gather_binary(header, layout, data.data(), false, where);
+    return gather_binary(header, layout, data.data(), false, zero_points, where);
 }
 
 PointCloud read_pcd_compressed(const PcdHeader& header, const PcdLayout& layout, std::span<const std::uint8_t> data,
+                               std::size_t& zero_points,
                                const std::string& where)
 {
     if (data.size() < 8) {
@@ -384,16 +394,21 @@ PointCloud read_pcd_compressed(const PcdHeader& header, const PcdLayout& layout,
         throw Error(where, "compressed data is corrupt (" + std::to_string(compressed_size) +
                                " bytes cannot decompress to the " + std::to_string(uncompressed_size) + " announced)");
     }
-    std::vector<std::uint8_t> decoded(uncompressed_size);
-    lzf_decompress(block.first(compressed_size), decoded, where);
-    return gather_binary(header, layout, decoded.data(), true, where);
+    // Not value-initialised: zeroing gigabytes that a corrupt block claims would cost seconds
+    // before the decoder finds the fault. Untouched pages cost nothing, so time and memory follow
+    // the bytes actually decoded, and every byte is written before it is read (or the block is
+    // refused).
+    const std::unique_ptr<std::uint8_t[]> decoded(new std::uint8_t[uncompressed_size]);
+    lzf_decompress(block.first(compressed_size), std::span<std::uint8_t>(decoded.get(), uncompressed_size), where);
+    return gather_binary(header, layout, decoded.get(), true, zero_points, where);
 }
 
 PointCloud read_pcd_ascii(const PcdHeader& header, const PcdLayout& layout, std::string_view text,
-                          const std::string& where)
+                          std::size_t& zero_points, const std::string& where)
 {
     FiniteCloudBuilder builder(layout.normal.has_value(), layout.color.has_value(),
-                               std::min(header.points, max_text_rows(text.size(), header.values_per_point)));
+                               std::min(header.points, max_text_rows(text.size(), header.values_per_point)),
+                               organized_zeros(header, zero_points));
     std::vector<std::string_view> tokens;
     tokens.reserve(header.values_per_point);
     std::size_t line_number = header.header_lines;
@@ -506,6 +521,7 @@ PointCloud read_pcd(std::span<const std::uint8_t> file, const std::string& where
 
     report.points_in = header.points;
     report.points_finite = 0;
+    report.points_zero = 0;
     report.width = header.width;
     report.height = header.height;
     report.fields.clear();
@@ -519,9 +535,13 @@ PointCloud read_pcd(std::span<const std::uint8_t> file, const std::string& where
     PointCloud cloud;
     const std::span<const std::uint8_t> data = file.subspan(header.data_start);
     switch (header.encoding) {
-    case CloudEncoding::ascii: cloud = read_pcd_ascii(header, layout, text.substr(header.data_start), where); break;
-    case CloudEncoding::binary: cloud = read_pcd_binary(header, layout, data, where); break;
-    case CloudEncoding::binary_compressed: cloud = read_pcd_compressed(header, layout, data, where); break;
+    case CloudEncoding::ascii:
+        cloud = read_pcd_ascii(header, layout, text.substr(header.data_start), report.points_zero, where);
+        break;
+    case CloudEncoding::binary: cloud = read_pcd_binary(header, layout, data, report.points_zero, where); break;
+    case CloudEncoding::binary_compressed:
+        cloud = read_pcd_compressed(header, layout, data, report.points_zero, where);
+        break;
     }
     report.points_finite = cloud.size();
     return cloud;

@@ -32,6 +32,10 @@ void check_cloud(const PointCloud& cloud, const char* what)
         if (!cloud.points[i].allFinite()) {
             throw Error(what, "point " + std::to_string(i) + " is not finite");
         }
+        if (!within_coordinate_range(cloud.points[i])) {
+            throw Error(what, "point " + std::to_string(i) + " has a coordinate beyond ±" +
+                                  max_coordinate_text + ", the supported range");
+        }
     }
 }
 

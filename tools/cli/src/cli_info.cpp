@@ -36,7 +36,10 @@ void run_info(const InfoOptions& options, const GlobalOptions& global)
             {"encoding", to_string(report.encoding)},
             {"points", group_digits(report.points_in)},
             {"finite", group_digits(report.points_finite) + " (" +
-                           group_digits(report.points_in - report.points_finite) + " non-finite dropped)"},
+                           group_digits(report.points_in - report.points_finite) +
+                           (report.points_zero > 0
+                                ? " dropped: " + group_digits(report.points_zero) + " invalid pixels at (0, 0, 0), the rest non-finite)"
+                                : std::string(" non-finite dropped)"))},
             {"organized", report.height > 1 ? std::to_string(report.width) + " x " + std::to_string(report.height)
                                             : std::string("no")},
             {"fields", fields},
@@ -53,6 +56,7 @@ void run_info(const InfoOptions& options, const GlobalOptions& global)
         {"encoding", to_string(report.encoding)},
         {"points", report.points_in},
         {"points_finite", report.points_finite},
+        {"points_zero", report.points_zero},
         {"organized", report.height > 1},
         {"width", report.width},
         {"height", report.height},

@@ -4,6 +4,7 @@
 /// @brief mfpc::PointCloud, the cloud every stage takes: finite float xyz points with optional
 /// normals, colours and the source position of each point.
 
+#include <cmath>
 #include <cstddef>
 #include <cstdint>
 #include <span>
@@ -27,6 +28,23 @@ struct Rgb {
     /// @return True when r, g and b all match.
     friend bool operator==(const Rgb&, const Rgb&) = default;
 };
+
+/// @brief The largest coordinate magnitude a cloud may hold, in its units (metres for a sensor):
+/// 1e9. Float spacing at 1e9 is 64, so no surface beyond it can be described, and below it the
+/// squared distances and covariance sums of any kernel stay far inside float's range; beyond it
+/// FLANN's and Embree's arithmetic overflows. Readers and check_cloud refuse a point beyond it.
+inline constexpr float max_coordinate = 1e9f;
+/// @brief max_coordinate as errors write it.
+inline constexpr const char* max_coordinate_text = "1e9";
+
+/// @brief Whether |x|, |y| and |z| are all at most max_coordinate (false for NaN).
+/// @param point The point.
+/// @return True when the point lies in the supported range.
+inline bool within_coordinate_range(const Point& point) noexcept
+{
+    return std::abs(point.x()) <= max_coordinate && std::abs(point.y()) <= max_coordinate &&
+           std::abs(point.z()) <= max_coordinate;
+}
 
 /// @brief A cloud of finite points, stored as contiguous float xyz (12 bytes a point, no padding)
 /// so that kernels take it as std::span<const Point>. Normals and colours are optional: each is
@@ -72,7 +90,7 @@ struct PointCloud {
 };
 
 /// @brief Checks the invariants of PointCloud (attribute sizes, index map size and range, finite
-/// coordinates).
+/// coordinates within ±max_coordinate).
 /// @param cloud The cloud to check.
 /// @param what The name of the cloud, for the error.
 /// @throws mfpc::Error naming `what` on the first violation.
