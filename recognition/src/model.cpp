@@ -11,6 +11,7 @@
 #include "mfpc/core/cloud_io.hpp"
 #include "mfpc/core/error.hpp"
 #include "mfpc/core/detail/text_file.hpp"
+#include "mfpc/index/distinct_points.hpp"
 #include "mfpc/index/neighbor_grid.hpp"
 #include "mfpc/kernels/normals.hpp"
 #include "mfpc/kernels/shot.hpp"
@@ -102,10 +103,16 @@ Point model_centroid(const Model& model)
     return (sum / double(model.points.size())).cast<float>();
 }
 
-Model prepare_model(const PointCloud& cloud, const FeatureParams& params, const std::string& source,
+Model prepare_model(const PointCloud& input, const FeatureParams& params, const std::string& source,
                     FeatureTimings* timings)
 {
-    if (cloud.empty()) throw Error(source, "the model cloud has no finite points");
+    if (input.empty()) throw Error(source, "the model cloud has no finite points");
+    // Each position once, as for a scene (describe_scene): copies would make the normals' search
+    // quadratic and add nothing to the surface.
+    const DistinctPoints distinct = distinct_points(input.points);
+    const PointCloud distinct_cloud =
+        distinct.all_distinct() ? PointCloud{} : select(input, distinct.representatives(input.size()));
+    const PointCloud& cloud = distinct.all_distinct() ? input : distinct_cloud;
     Model model;
     model.points = cloud.points;
     model.params = params;

@@ -10,6 +10,7 @@
 
 #include "mfpc/core/camera.hpp"
 #include "mfpc/core/error.hpp"
+#include "mfpc/index/distinct_points.hpp"
 #include "mfpc/index/neighbor_grid.hpp"
 #include "mfpc/index/organized_neighbors.hpp"
 #include "mfpc/kernels/foveate.hpp"
@@ -27,17 +28,23 @@ double elapsed_ms(Clock::time_point since)
 
 }  // namespace
 
-std::unique_ptr<DescribedScene> describe_scene(const PointCloud& scene, const RecognitionParams& params,
+std::unique_ptr<DescribedScene> describe_scene(const PointCloud& input, const RecognitionParams& params,
                                                const SceneFoveation& foveation)
 {
     check_recognition_params(params);
-    if (scene.empty()) throw Error("recognize", "the scene has no finite points");
+    if (input.empty()) throw Error("recognize", "the scene has no finite points");
     const auto start = Clock::now();
     auto described = std::make_unique<DescribedScene>();
     DescribedScene& d = *described;
+    // Exact copies of a point add nothing a sensor saw, but every neighbourhood that holds m of
+    // them costs m x m in the searches of normals and verification: the scene is described with
+    // each position once.
+    const DistinctPoints distinct = distinct_points(input.points);
+    if (!distinct.all_distinct()) d.distinct_scene = select(input, distinct.representatives(input.size()));
+    const PointCloud& scene = distinct.all_distinct() ? input : d.distinct_scene;
     d.scene = &scene;
     d.params = params;
-    d.counts.scene_points = scene.size();
+    d.counts.scene_points = input.size();
 
     FoveatedCloud& foveated = d.foveated;
     const bool foveating = foveation.config != nullptr && foveation.mode != FoveationMode::none;

@@ -23,6 +23,7 @@
 #include "mfpc/rendering/detail/embree_handles.hpp"
 #include "mfpc/core/box.hpp"
 #include "mfpc/core/error.hpp"
+#include "mfpc/index/distinct_points.hpp"
 #include "mfpc/index/neighbor_grid.hpp"
 
 namespace mfpc {
@@ -213,6 +214,24 @@ std::vector<float> neighbour_spacing(std::span<const Point> points)
     std::vector<float> squared(indices.size());
     grid.knn_search_batch(points, k, indices, squared);
     for (std::size_t i = 0; i < points.size(); ++i) spacing[i] = std::sqrt(squared[i * std::size_t(k) + std::size_t(k - 1)]);
+    return spacing;
+}
+
+// neighbour_spacing with each position searched once (copies of a point would make the search
+// quadratic); a copy takes the spacing of the first point at its position.
+std::vector<float> distinct_spacing(std::span<const Point> points)
+{
+    const DistinctPoints distinct = distinct_points(points);
+    if (distinct.all_distinct()) return neighbour_spacing(points);
+    const std::vector<std::uint32_t> heads = distinct.representatives(points.size());
+    std::vector<Point> positions;
+    positions.reserve(heads.size());
+    for (std::uint32_t h : heads) positions.push_back(points[h]);
+    const std::vector<float> head_spacing = neighbour_spacing(positions);
+    std::vector<float> spacing(points.size());
+    std::vector<std::uint32_t> slot(points.size(), 0);
+    for (std::size_t i = 0; i < heads.size(); ++i) slot[heads[i]] = std::uint32_t(i);
+    for (std::size_t i = 0; i < points.size(); ++i) spacing[i] = head_spacing[slot[distinct.first[i]]];
     return spacing;
 }
 
@@ -467,10 +486,16 @@ Rgb region_color(int structure, int level, int levels)
 
 Rgb structure_color(int structure) { return from_hsv(structure_hue(structure), 1.0f, 0.8f); }
 
-RgbImage render_cloud(const PointCloud& cloud, const FoveationConfig* fovea, std::span<const RenderOverlay> overlays,
+RgbImage render_cloud(const PointCloud& input, const FoveationConfig* fovea, std::span<const RenderOverlay> overlays,
                       const RenderParams& params, RenderStats* stats)
 {
-    check_cloud(cloud, "render");
+    check_cloud(input, "render");
+    // Copies of one point draw the same disc, and the neighbour searches that size the discs would
+    // pay m x m for m of them: draw each position once.
+    const DistinctPoints distinct = distinct_points(input.points);
+    const PointCloud distinct_cloud =
+        distinct.all_distinct() ? PointCloud{} : select(input, distinct.representatives(input.size()));
+    const PointCloud& cloud = distinct.all_distinct() ? input : distinct_cloud;
     if (!(params.point_radius >= 0.0f) || !std::isfinite(params.point_radius)) {
         throw Error("render", "point radius must be a finite number >= 0, got " + format_number(params.point_radius));
     }
@@ -566,10 +591,12 @@ RgbImage render_cloud(const PointCloud& cloud, const FoveationConfig* fovea, std
     for (const RenderOverlay& overlay : overlays) {
         if (overlay.points.empty()) continue;
         for (const Point& p : overlay.points) {
-            if (!p.allFinite()) throw Error("render", "an overlay has a non-finite point");
+            if (!within_coordinate_range(p)) {
+                throw Error("render", std::string("an overlay has a point not finite or beyond ±") + max_coordinate_text);
+            }
         }
         const Radii overlay_radii = params.point_radius > 0.0f ? fixed_radii(overlay.points.size(), params.point_radius)
-                                                               : disc_radii(neighbour_spacing(overlay.points));
+                                                               : disc_radii(distinct_spacing(overlay.points));
         std::vector<std::uint32_t> all(overlay.points.size());
         for (std::uint32_t i = 0; i < all.size(); ++i) all[i] = i;
         const unsigned id = add_discs(overlay_scene.get(), RTC_GEOMETRY_TYPE_DISC_POINT, overlay.points, all,

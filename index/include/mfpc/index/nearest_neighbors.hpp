@@ -15,7 +15,8 @@ namespace mfpc {
 /// Summed in fixed blocks reduced in order, so the result is the same at any thread count.
 /// @param points The cloud.
 /// @return The mean spacing; 0 for clouds of fewer than two points. Exact duplicates count as
-/// distance 0.
+/// distance 0 (and are searched once, so they cost linear time).
+/// @throws mfpc::Error for a point not finite or beyond ±max_coordinate.
 double mean_spacing(std::span<const Point> points);
 
 }  // namespace mfpc

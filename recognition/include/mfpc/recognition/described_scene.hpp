@@ -20,7 +20,8 @@ struct DescribedScene {
     DescribedScene(const DescribedScene&) = delete;
     DescribedScene& operator=(const DescribedScene&) = delete;
 
-    const PointCloud* scene = nullptr;       ///< the scene described
+    const PointCloud* scene = nullptr;       ///< the scene described: the input, or distinct_scene
+    PointCloud distinct_scene;               ///< the input with each position once, when it repeats some
     RecognitionParams params;                ///< the parameters of the description and of every model's run
     FoveatedCloud foveated;                  ///< the foveated cloud described (empty without foveation)
     Features features;                       ///< the scene's keypoints, frames and descriptors
