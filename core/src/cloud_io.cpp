@@ -81,7 +81,7 @@ PointCloud read_cloud(const std::filesystem::path& path, CloudReadReport* report
     return format == CloudFormat::pcd ? detail::read_pcd(bytes, where, filled) : detail::read_ply(bytes, where, filled);
 }
 
-void write_cloud(const std::filesystem::path& path, const PointCloud& cloud, const CloudWriteOptions& options)
+std::string cloud_file_bytes(const std::filesystem::path& path, const PointCloud& cloud, const CloudWriteOptions& options)
 {
     const std::string where = path.string();
     check_cloud_write_options(path, options);
@@ -89,8 +89,13 @@ void write_cloud(const std::filesystem::path& path, const PointCloud& cloud, con
     check_cloud(cloud, where.c_str());
     // Both readers refuse a file without points, so writing one would only defer the error.
     if (cloud.empty()) throw Error(where, "cloud has no points (a file without points could not be read back)");
-    const std::string bytes = format == CloudFormat::pcd ? detail::pcd_file_bytes(cloud, options, where)
-                                                         : detail::ply_file_bytes(cloud, options, where);
+    return format == CloudFormat::pcd ? detail::pcd_file_bytes(cloud, options, where)
+                                      : detail::ply_file_bytes(cloud, options, where);
+}
+
+void write_cloud(const std::filesystem::path& path, const PointCloud& cloud, const CloudWriteOptions& options)
+{
+    const std::string bytes = cloud_file_bytes(path, cloud, options);
     write_file_atomically(path, [&](std::ofstream& out) {
         out.write(bytes.data(), static_cast<std::streamsize>(bytes.size()));
     });

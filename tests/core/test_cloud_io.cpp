@@ -28,6 +28,7 @@
 #include "mfpc/core/detail/atomic_file.hpp"
 #include "mfpc/core/cloud_io.hpp"
 #include "mfpc/core/error.hpp"
+#include "mfpc/core/peak_memory.hpp"
 #include "mfpc/core/point_cloud.hpp"
 #include "test_support.hpp"
 
@@ -53,7 +54,7 @@ bool same_bits(const Point& a, const Point& b)
 }
 
 // A cloud whose coordinates include the values text round trips get wrong first: denormals,
-// negative zero, the largest float, thirds, and long random mantissas.
+// negative zero, the largest coordinate a cloud may hold, thirds, and long random mantissas.
 PointCloud random_cloud(std::size_t count, bool normals, bool colors, std::uint32_t seed)
 {
     std::mt19937 rng(seed);
@@ -64,7 +65,7 @@ PointCloud random_cloud(std::size_t count, bool normals, bool colors, std::uint3
         Point p(coordinate(rng), coordinate(rng), coordinate(rng));
         if (i % 17 == 3) p.x() = 1e-40f;
         if (i % 19 == 4) p.y() = -0.0f;
-        if (i % 23 == 5) p.z() = std::numeric_limits<float>::max();
+        if (i % 23 == 5) p.z() = std::nextafter(max_coordinate, 0.0f);
         if (i % 29 == 6) p.x() = 1.0f / 3.0f;
         cloud.points.push_back(p);
         if (normals) {
@@ -508,15 +509,18 @@ TEST(CloudIo, NormalsReadUnderEitherSpelling)
 TEST(CloudIo, DoubleCoordinatesRoundToTheNearestFloat)
 {
     TempDir dir;
-    const std::string text = "ply\nformat ascii 1.0\nelement vertex 3\nproperty double x\nproperty double y\n"
-                             "property double z\nend_header\n3.4028235e38 -3.4028235e38 1\n3.4028236e38 0 0\n"
-                             "1e300 0 0\n";
+    // Beyond float's range a double becomes infinity, a non-finite point the reader drops; just
+    // below, it rounds to the largest float, which lies beyond max_coordinate: an error.
+    const std::string header = "ply\nformat ascii 1.0\nelement vertex 3\nproperty double x\nproperty double y\n"
+                               "property double z\nend_header\n";
     CloudReadReport report;
-    const PointCloud cloud = read_cloud(dir.write("edge.ply", text), &report);
+    const PointCloud cloud =
+        read_cloud(dir.write("edge.ply", header + "0.1 -1e9 1\n3.4028236e38 0 0\n1e300 0 0\n"), &report);
     ASSERT_EQ(cloud.size(), 1u);
-    EXPECT_EQ(cloud.points[0],
-              Point(std::numeric_limits<float>::max(), -std::numeric_limits<float>::max(), 1));
+    EXPECT_EQ(cloud.points[0], Point(0.1f, -1e9f, 1));
     EXPECT_EQ(report.points_in, 3u);
+    EXPECT_TRUE(read_fails_with(dir.write("max.ply", header + "3.4028235e38 0 1\n0 0 1\n0 0 2\n"),
+                                "point 0 has a coordinate beyond"));
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -894,6 +898,96 @@ TEST(CloudIoErrors, PcdCompressedProblems)
                                 "compressed block announces 13 bytes, but 1 points of 12 bytes need 12"));
 }
 
+// A forged header claims the most a block of that size could hold (88 times it), and the data
+// is literal runs that end long before. Zeroing the claimed buffer first cost seconds and
+// gigabytes before the decoder found the fault; untouched, the claim costs nothing.
+TEST(CloudIoErrors, ForgedCompressedSizeCostsOnlyWhatIsDecoded)
+{
+    TempDir dir;
+    const std::size_t compressed = std::size_t(4) << 20;
+    std::string block;
+    block.reserve(compressed);
+    while (block.size() + 33 <= compressed) block += std::string(1, '\x1f') + std::string(32, 'x');
+    const std::uint32_t points = std::uint32_t(std::uint64_t(block.size()) * 88 / 12);
+    const std::uint32_t claimed = points * 12;
+    std::string sizes(8, '\0');
+    const auto block_size = std::uint32_t(block.size());
+    std::memcpy(sizes.data(), &block_size, 4);
+    std::memcpy(sizes.data() + 4, &claimed, 4);
+    const auto path = dir.write("forged.pcd", xyz_pcd("WIDTH " + std::to_string(points) + "\nHEIGHT 1\nPOINTS " +
+                                                          std::to_string(points) + "\n",
+                                                      "DATA binary_compressed", sizes + block));
+    const bool reset = reset_peak_memory();
+    const std::size_t before = peak_memory_bytes();
+    EXPECT_TRUE(read_fails_with(path, "compressed data is corrupt (it decompresses to "));
+    if (reset && before > 0) {
+        // The claim is 352 MB; what is decoded is under 4 MB.
+        EXPECT_LT(peak_memory_bytes() - before, std::size_t(64) << 20);
+    }
+}
+
+// Some drivers write (0, 0, 0) for missing depth: in an organized cloud that is an invalid pixel,
+// as NaN is (a sensor cannot measure its own centre). A list keeps such a point.
+TEST(CloudIo, OrganizedZerosAreInvalidPixels)
+{
+    TempDir dir;
+    for (const char* data : {"DATA ascii", "DATA binary"}) {
+        // Pixels 1 and 3 are zeros (one of them -0).
+        const std::vector<float> grid = {1, 2, 3, 0, 0, 0, 4, 5, 6, -0.0f, 0, 0};
+        std::string body;
+        if (std::string(data) == "DATA ascii") {
+            body = "1 2 3\n0 0 0\n4 5 6\n-0 0 0\n";
+        } else {
+            body = bytes_of(grid);
+        }
+        CloudReadReport report;
+        const PointCloud organized = read_cloud(
+            dir.write(std::string("grid_") + (data[5] == 'a' ? "a" : "b") + ".pcd",
+                      xyz_pcd("WIDTH 2\nHEIGHT 2\nPOINTS 4\n", data, body)),
+            &report);
+        ASSERT_EQ(organized.size(), 2u) << data;
+        EXPECT_EQ(organized.source_index, (std::vector<std::uint32_t>{0, 2}));
+        EXPECT_EQ(report.points_zero, 2u);
+        EXPECT_EQ(report.points_finite, 2u);
+        const PointCloud list =
+            read_cloud(dir.write(std::string("list_") + (data[5] == 'a' ? "a" : "b") + ".pcd",
+                                 xyz_pcd("WIDTH 4\nHEIGHT 1\nPOINTS 4\n", data, body)),
+                       &report);
+        EXPECT_EQ(list.size(), 4u) << data;
+        EXPECT_EQ(report.points_zero, 0u);
+    }
+    // A grid of zeros only holds no valid point.
+    EXPECT_TRUE(read_fails_with(dir.write("zeros.pcd", xyz_pcd("WIDTH 2\nHEIGHT 2\nPOINTS 4\n", "DATA ascii",
+                                                               "0 0 0\n0 0 0\n0 0 0\n0 0 0\n")),
+                                "no valid points"));
+}
+
+// Beyond ±1e9 no kernel's float arithmetic is safe (FLANN's tree build recursed without end on
+// ±1.7e38, Embree asserted on rays from 1e19): every reader and check_cloud say so.
+TEST(CloudIoErrors, CoordinatesBeyondTheRange)
+{
+    TempDir dir;
+    EXPECT_TRUE(read_fails_with(dir.write("far.pcd", xyz_pcd("WIDTH 3\nHEIGHT 1\nPOINTS 3\n", "DATA ascii",
+                                                             "1 2 3\n1.7e38 0 0\n4 5 6\n")),
+                                "point 1 has a coordinate beyond"));
+    EXPECT_TRUE(read_fails_with(dir.write("far.ply", "ply\nformat ascii 1.0\nelement vertex 2\nproperty float x\n"
+                                                     "property float y\nproperty float z\nend_header\n"
+                                                     "0 0 1\n0 -2e9 1\n"),
+                                "point 1 has a coordinate beyond"));
+    const PointCloud edge = read_cloud(dir.write("edge.pcd", xyz_pcd("WIDTH 1\nHEIGHT 1\nPOINTS 1\n", "DATA ascii",
+                                                                     "1e9 -1e9 1e9\n")));
+    EXPECT_EQ(edge.size(), 1u);
+    PointCloud cloud = random_cloud(10, false, false, 5);
+    cloud.points[7] = Point(0, 0, 2e9f);
+    try {
+        check_cloud(cloud, "scene");
+        ADD_FAILURE() << "no error";
+    } catch (const Error& error) {
+        EXPECT_EQ(error.where(), "scene");
+        EXPECT_NE(error.reason().find("point 7 has a coordinate beyond"), std::string::npos) << error.reason();
+    }
+}
+
 TEST(CloudIoErrors, PlyProblems)
 {
     TempDir dir;
@@ -1093,6 +1187,78 @@ TEST(AtomicFile, SuccessfulWriteReplacesTheFile)
     std::filesystem::create_directory(dir / "taken.pcd");
     EXPECT_THROW(write_cloud(dir / "taken.pcd", cloud), Error);
     EXPECT_EQ(files_in(dir.path()), (std::vector<std::string>{"cloud.ply", "taken.pcd"}));
+}
+
+// A command's outputs all or none: nothing of a failed set reaches a target.
+TEST(AtomicFile, StagedFilesAreAllOrNone)
+{
+    TempDir dir;
+    const auto kept = dir.write("a.txt", "old a");
+    {
+        StagedFiles outputs;
+        outputs.stage(kept, std::string("new a"));
+        outputs.stage(dir / "b.txt", std::string("new b"));
+        std::filesystem::create_directory(dir / "c.txt");
+        EXPECT_THROW(outputs.stage(dir / "c.txt", std::string("new c")), Error);
+        // Destroyed without commit: the staged temporaries go, the targets stay.
+    }
+    EXPECT_EQ(read_file(kept), "old a");
+    EXPECT_EQ(files_in(dir.path()), (std::vector<std::string>{"a.txt", "c.txt"}));
+
+    StagedFiles outputs;
+    outputs.stage(kept, std::string("new a"));
+    outputs.stage(dir / "b.txt", [](std::ofstream& out) { out << "new b"; });
+    outputs.commit();
+    EXPECT_EQ(read_file(kept), "new a");
+    EXPECT_EQ(read_file(dir / "b.txt"), "new b");
+    EXPECT_EQ(files_in(dir.path()), (std::vector<std::string>{"a.txt", "b.txt", "c.txt"}));
+}
+
+// A rename failing inside commit() puts back what was already replaced.
+TEST(AtomicFile, FailedCommitPutsBackWhatItReplaced)
+{
+    TempDir dir;
+    const auto first = dir.write("first.txt", "old first");
+    StagedFiles outputs;
+    outputs.stage(first, std::string("new first"));
+    outputs.stage(dir / "second.txt", std::string("new second"));
+    // Now the second target becomes a directory that is not empty: its rename must fail.
+    std::filesystem::create_directories(dir / "second.txt" / "inside");
+    EXPECT_THROW(outputs.commit(), Error);
+    EXPECT_EQ(read_file(first), "old first");
+    EXPECT_EQ(files_in(dir.path()), (std::vector<std::string>{"first.txt", "second.txt"}));
+}
+
+// A process killed while writing leaves its temporary; the next writer into that directory
+// removes it when its process is gone, and leaves those of live processes and other hosts.
+TEST(AtomicFile, AbandonedTemporariesAreRemovedByTheNextWrite)
+{
+    TempDir dir;
+    // The name this host's temporaries get: made by a write that is made to fail.
+    std::string own;
+    try {
+        write_file_atomically(dir / "probe.txt", [&](std::ofstream&) {
+            for (const auto& entry : std::filesystem::directory_iterator(dir.path())) own = entry.path().filename();
+            throw Error("probe", "stop");
+        });
+    } catch (const Error&) {
+    }
+    const std::size_t marker = own.find(".tmp-");
+    ASSERT_NE(marker, std::string::npos) << own;
+    const std::string host = own.substr(marker + 5, own.rfind('-', own.rfind('-') - 1) - marker - 5);
+
+    // In a fresh directory (the first write of a process into a directory cleans it).
+    TempDir other;
+    const std::string dead = "out.pcd.tmp-" + host + "-999999999-0123456789abcdef";
+    const std::string dead_kept = dead + ".old";
+    const std::string live = "out.pcd.tmp-" + host + "-1-0123456789abcdef";  // pid 1 is always there
+    const std::string foreign = "out.pcd.tmp-elsewhere_" + host + "-999999999-0123456789abcdef";
+    const std::string unrelated = "notes.tmp-something";
+    for (const std::string& name : {dead, dead_kept, live, foreign, unrelated}) other.write(name, "x");
+    write_cloud(other / "out.pcd", random_cloud(5, false, false, 3));
+    std::vector<std::string> expected{unrelated, "out.pcd", foreign, live};
+    std::sort(expected.begin(), expected.end());
+    EXPECT_EQ(files_in(other.path()), expected);
 }
 
 }  // namespace

@@ -7,6 +7,7 @@
 
 #include "cli_commands.hpp"
 #include "mfpc/core/cloud_io.hpp"
+#include "mfpc/core/detail/atomic_file.hpp"
 #include "mfpc/core/error.hpp"
 #include "mfpc/core/foveation_config.hpp"
 #include "mfpc/index/point_index.hpp"
@@ -137,20 +138,35 @@ void run_foveate(const FoveateOptions& options, const GlobalOptions& global)
     report.timings_ms.emplace_back("label", result.label_ms);
     report.timings_ms.emplace_back("downsample", run_mode == FoveationMode::none ? foveate_ms : result.downsample_ms);
 
+    // The foveated cloud and the region clouds are written all or none: a failure half-way keeps
+    // every earlier file as it was.
+    StagedFiles outputs;
     if (!options.output.empty()) {
         if (result.cloud.empty()) {
             throw Error(options.output, "nothing to write: no point of the cloud lies inside any structure");
         }
-        write_cloud(options.output, result.cloud, write_options);
+        outputs.stage(options.output, cloud_file_bytes(options.output, result.cloud, write_options));
     } else if (result.cloud.empty()) {
         warn("no point of the cloud lies inside any structure");
     }
-    if (!options.regions_dir.empty()) {
-        std::error_code error;
-        std::filesystem::create_directories(options.regions_dir, error);
-        if (error) throw Error(options.regions_dir, "cannot create directory: " + error.message());
-        for (const RegionCloud& region : region_clouds(result))
-            write_cloud(std::filesystem::path(options.regions_dir) / region.file_name, region.cloud, write_options);
+    bool created = false;  // the regions' directory, made by this run
+    try {
+        if (!options.regions_dir.empty()) {
+            const std::filesystem::path directory(options.regions_dir);
+            std::error_code error;
+            created = std::filesystem::create_directories(directory, error);
+            if (error) throw Error(options.regions_dir, "cannot create directory: " + error.message());
+            for (const RegionCloud& region : region_clouds(result)) {
+                const std::filesystem::path path = directory / region.file_name;
+                outputs.stage(path, cloud_file_bytes(path, region.cloud, write_options));
+            }
+        }
+        outputs.commit();
+    } catch (...) {
+        outputs.discard();
+        std::error_code ignored;
+        if (created) std::filesystem::remove(options.regions_dir, ignored);  // only if empty
+        throw;
     }
     report.timings_ms.emplace_back("write", clock.lap_ms());
     report.timings_ms.emplace_back("total", total_clock.lap_ms());

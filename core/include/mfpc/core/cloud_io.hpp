@@ -4,7 +4,9 @@
 /// @brief PCD (.pcd) and PLY (.ply) reading and writing. The format is chosen by the file
 /// extension.
 ///
-/// Reading keeps only finite points (x, y and z all finite); the index map of the returned cloud
+/// Reading keeps only finite points (x, y and z all finite) and, in an organized PCD, takes a pixel
+/// at exactly (0, 0, 0) for missing depth, as NaN (see CloudReadReport::points_zero); a point
+/// beyond ±max_coordinate is an error. The index map of the returned cloud
 /// records the source position of every kept point, so an organized 640x480 scan keeps its pixel
 /// coordinates. Normals (normal_x/y/z or nx/ny/nz) and colour (rgb/rgba packed, or red/green/blue)
 /// are read when present. Any malformed input (missing or unreadable file, bad header, truncated
@@ -34,6 +36,9 @@ enum class CloudEncoding {
 struct CloudReadReport {
     std::size_t points_in = 0;      ///< Points the file holds (width * height for PCD).
     std::size_t points_finite = 0;  ///< Points kept.
+    /// Pixels of an organized PCD at exactly (0, 0, 0): missing depth as some drivers write it,
+    /// read as invalid pixels (as NaN) and not kept.
+    std::size_t points_zero = 0;
     std::uint32_t width = 0;        ///< Width of the file's point grid.
     std::uint32_t height = 1;       ///< Height of the file's point grid (> 1: organized).
     std::vector<std::string> fields;  ///< Field names as the file gives them.
@@ -57,6 +62,16 @@ struct CloudWriteOptions {
     /// organized scan stays organized. Needs a cloud whose index map fits its width x height.
     bool organized = false;
 };
+
+/// @brief The bytes of the file write_cloud would write, without writing it: for a caller that
+/// writes several outputs all or none.
+/// @param path The file's name: .pcd or .ply (chooses the format; nothing is created).
+/// @param cloud The cloud.
+/// @param options The encoding, and whether to write the organized source grid.
+/// @return The whole file.
+/// @throws mfpc::Error as write_cloud does for the options and the cloud.
+std::string cloud_file_bytes(const std::filesystem::path& path, const PointCloud& cloud,
+                             const CloudWriteOptions& options = {});
 
 /// @brief Writes a cloud as PCD or PLY, chosen by the extension of `path`.
 ///
