@@ -575,7 +575,11 @@ TEST(ReadMesh, RejectsMalformedPly)
     const std::size_t first_x = huge.find("end_header\n") + 11 + 8;
     const double beyond = 1e300;
     std::memcpy(huge.data() + first_x, &beyond, sizeof(beyond));
-    check("huge.ply", huge, "vertex 0: coordinate 1e+300 is beyond float range");
+    check("huge.ply", huge, "vertex 0: coordinate 1e+300 is beyond ±1e9, the supported range");
+    // Finite as a float, but beyond what Embree's rays can take.
+    const double far = 2e9;
+    std::memcpy(huge.data() + first_x, &far, sizeof(far));
+    check("far.ply", huge, "vertex 0: coordinate 2e+09 is beyond ±1e9, the supported range");
 }
 
 TEST(ReadMesh, RejectsMalformedObj)
@@ -595,6 +599,7 @@ TEST(ReadMesh, RejectsMalformedObj)
     check("two.obj", triangle + "f 1 2\n", ":4", "face has 2 vertices");
     check("inf.obj", "v 0 inf 0\n" + triangle + "f 2 3 4\n", ":1", "vertex coordinate inf is not finite");
     check("nan.obj", triangle + "v nan 0 0\nf 1 2 3\n", ":4", "vertex coordinate nan is not finite");
+    check("far.obj", triangle + "v 0 1e19 0\nf 1 2 4\n", ":4", "vertex coordinate 1e+19 is beyond ±1e9");
     check("word.obj", "v 0 zero 0\n", ":1", "'zero' is not a number");
     check("short_vertex.obj", "v 0 0\n", ":1", "vertex needs x y z");
     check("corner.obj", triangle + "f 1 x 3\n", ":4", "face corner 'x' has no vertex index");

@@ -63,7 +63,10 @@ void check_mesh(const TriangleMesh& mesh)
         }
     }
     for (std::size_t v = 0; v < mesh.vertices.size(); ++v) {
-        if (!mesh.vertices[v].allFinite()) throw Error("mesh", "vertex " + std::to_string(v) + " is not finite");
+        if (!within_coordinate_range(mesh.vertices[v])) {
+            throw Error("mesh", "vertex " + std::to_string(v) + " is not finite or lies beyond ±" +
+                                    max_coordinate_text + ", the supported range");
+        }
     }
 }
 

@@ -28,17 +28,20 @@ namespace {
 // Triangles hold int indices.
 constexpr std::uint64_t max_vertices = std::numeric_limits<int>::max();
 
-// A coordinate as the mesh stores it, or what is wrong with it: a double beyond float's range
-// would become infinity (and casting it is undefined behaviour), so it is refused like NaN and Inf.
+// A coordinate as the mesh stores it, or what is wrong with it: beyond ±max_coordinate Embree's
+// ray arithmetic overflows (and beyond float's range the cast is undefined), so it is refused
+// like NaN and Inf.
 std::optional<std::string> to_coordinate(double value, float& coordinate)
 {
-    if (std::isfinite(value) && std::abs(value) <= double(std::numeric_limits<float>::max())) {
+    if (std::isfinite(value) && std::abs(value) <= double(max_coordinate)) {
         coordinate = static_cast<float>(value);
         return std::nullopt;
     }
     char text[32];
     std::snprintf(text, sizeof(text), "%g", value);
-    return "coordinate " + std::string(text) + (std::isfinite(value) ? " is beyond float range" : " is not finite");
+    return "coordinate " + std::string(text) +
+           (std::isfinite(value) ? std::string(" is beyond ±") + max_coordinate_text + ", the supported range"
+                                 : std::string(" is not finite"));
 }
 
 // Fans a polygon (indices already checked) into triangles around its first vertex.
