@@ -13,6 +13,11 @@
 #include <tuple>
 #include <vector>
 
+#include <signal.h>
+#include <sys/resource.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
 #include <gtest/gtest.h>
 #include <pcl/common/io.h>
 #include <pcl/console/print.h>
@@ -1259,6 +1264,58 @@ TEST(AtomicFile, AbandonedTemporariesAreRemovedByTheNextWrite)
     std::vector<std::string> expected{unrelated, "out.pcd", foreign, live};
     std::sort(expected.begin(), expected.end());
     EXPECT_EQ(files_in(other.path()), expected);
+}
+
+// Failure injection: a writer killed mid-write (SIGKILL, nothing of ours runs), and a disk that
+// fills up (the file size limit makes write() fail with EFBIG, as ENOSPC would).
+TEST(AtomicFile, KilledWriterLeavesTheOldFileAndItsTemporaryGoesNextRun)
+{
+    TempDir dir;
+    const auto path = dir.write("cloud.pcd", "old contents");
+    const pid_t child = fork();
+    ASSERT_GE(child, 0);
+    if (child == 0) {
+        write_file_atomically(path, [](std::ofstream& out) {
+            out << std::string(100000, 'x');
+            out.flush();
+            raise(SIGKILL);
+        });
+        _exit(0);  // not reached
+    }
+    int status = 0;
+    ASSERT_EQ(waitpid(child, &status, 0), child);
+    ASSERT_TRUE(WIFSIGNALED(status) && WTERMSIG(status) == SIGKILL);
+    EXPECT_EQ(read_file(path), "old contents");
+    ASSERT_EQ(files_in(dir.path()).size(), 2u);  // the target and the dead writer's temporary
+    write_cloud(dir / "other.pcd", random_cloud(5, false, false, 1));
+    EXPECT_EQ(files_in(dir.path()), (std::vector<std::string>{"cloud.pcd", "other.pcd"}));
+    EXPECT_EQ(read_file(path), "old contents");
+}
+
+TEST(AtomicFile, FullDiskLeavesTheOldFileAndNoTemporary)
+{
+    TempDir dir;
+    const auto path = dir.write("cloud.pcd", "old contents");
+    const pid_t child = fork();
+    ASSERT_GE(child, 0);
+    if (child == 0) {
+        signal(SIGXFSZ, SIG_IGN);
+        const rlimit limit{4096, 4096};
+        setrlimit(RLIMIT_FSIZE, &limit);
+        try {
+            write_cloud(path, random_cloud(5000, true, true, 2));
+        } catch (const Error& error) {
+            const std::string message = error.what();
+            _exit(message.find("failed (disk full?)") != std::string::npos ? 0 : 2);
+        }
+        _exit(3);
+    }
+    int status = 0;
+    ASSERT_EQ(waitpid(child, &status, 0), child);
+    ASSERT_TRUE(WIFEXITED(status));
+    EXPECT_EQ(WEXITSTATUS(status), 0) << "2: another error, 3: no error";
+    EXPECT_EQ(read_file(path), "old contents");
+    EXPECT_EQ(files_in(dir.path()), std::vector<std::string>{"cloud.pcd"});
 }
 
 }  // namespace
