@@ -164,7 +164,7 @@ Model load_model(const std::filesystem::path& path, const FeatureParams& params,
     return model;
 }
 
-void write_model_cache(const std::filesystem::path& path, const Model& model)
+std::string model_cache_bytes(const Model& model)
 {
     Writer w;
     w.bytes().append(magic, sizeof magic);
@@ -184,7 +184,13 @@ void write_model_cache(const std::filesystem::path& path, const Model& model)
     w.array(model.features.descriptors);
     const std::uint64_t checksum = fnv1a(w.bytes().data(), w.bytes().size());
     w.value(checksum);
-    write_file_atomically(path, [&](std::ofstream& out) { out.write(w.bytes().data(), std::streamsize(w.bytes().size())); });
+    return std::move(w.bytes());
+}
+
+void write_model_cache(const std::filesystem::path& path, const Model& model)
+{
+    const std::string bytes = model_cache_bytes(model);
+    write_file_atomically(path, [&](std::ofstream& out) { out.write(bytes.data(), std::streamsize(bytes.size())); });
 }
 
 Model read_model_cache(const std::filesystem::path& path)

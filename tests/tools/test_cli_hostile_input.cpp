@@ -148,5 +148,20 @@ TEST(CliHostileInput, FoveateOutputsAreAllOrNone)
     EXPECT_TRUE(std::filesystem::exists(regions / "structure0_level1.pcd"));
 }
 
+// synth wrote the scan, then failed on the labels and left a scene without its ground truth: a
+// scene's files are now all written or none.
+TEST(CliHostileInput, SynthSceneFilesAreAllOrNone)
+{
+    const test::TempDir dir;
+    std::filesystem::create_directories(dir / "scene" / "labels.png" / "taken");
+    const Result failed = run("-q synth -o '" + (dir / "scene").string() + "'");
+    EXPECT_EQ(failed.exit_code, 1) << failed.err;
+    EXPECT_EQ(line_count(failed.err), 1) << failed.err;
+    // The models are a set of their own, written before; none of the scene's files is there.
+    for (const char* name : {"scene.pcd", "scene.json", "scene.gt.json", "fovea.json", "fovea_all.json"})
+        EXPECT_FALSE(std::filesystem::exists(dir / "scene" / name)) << name;
+    EXPECT_TRUE(std::filesystem::is_directory(dir / "scene" / "labels.png" / "taken"));
+}
+
 }  // namespace
 }  // namespace mfpc

@@ -4,6 +4,7 @@
 #include <csetjmp>
 #include <cstdio>
 #include <fstream>
+#include <sstream>
 #include <string>
 
 #include <png.h>
@@ -185,26 +186,30 @@ void check_size(const std::string& where, std::uint64_t width, std::uint64_t hei
     }
 }
 
-void write_rows(const std::filesystem::path& path, std::uint32_t width, std::uint32_t height, int bit_depth,
-                int color_type, const std::uint8_t* data, std::size_t row_bytes)
+std::string encode_rows(const std::string& where, std::uint32_t width, std::uint32_t height, int bit_depth,
+                        int color_type, const std::uint8_t* data, std::size_t row_bytes)
 {
-    const std::string where = path.string();
-    write_file_atomically(path, [&](std::ofstream& out) {
-        PngContext context;
-        context.out = &out;
-        WriteStructs structs;
-        structs.png = png_create_write_struct(PNG_LIBPNG_VER_STRING, &context, on_error, on_warning);
-        if (structs.png == nullptr) throw Error(where, "libpng cannot start (out of memory?)");
-        structs.info = png_create_info_struct(structs.png);
-        if (structs.info == nullptr) throw Error(where, "libpng cannot start (out of memory?)");
-        png_set_write_fn(structs.png, &context, write_bytes, flush_bytes);
-        std::vector<png_bytep> rows(height);
-        // libpng's row type is not const, but writing only reads the rows.
-        for (std::uint32_t y = 0; y < height; ++y) rows[y] = const_cast<png_bytep>(data + std::size_t(y) * row_bytes);
-        if (!write_step(structs.png, structs.info, width, height, bit_depth, color_type, rows.data())) {
-            throw Error(where, std::string("cannot write PNG: ") + context.message);
-        }
-    });
+    std::ostringstream out;
+    PngContext context;
+    context.out = &out;
+    WriteStructs structs;
+    structs.png = png_create_write_struct(PNG_LIBPNG_VER_STRING, &context, on_error, on_warning);
+    if (structs.png == nullptr) throw Error(where, "libpng cannot start (out of memory?)");
+    structs.info = png_create_info_struct(structs.png);
+    if (structs.info == nullptr) throw Error(where, "libpng cannot start (out of memory?)");
+    png_set_write_fn(structs.png, &context, write_bytes, flush_bytes);
+    std::vector<png_bytep> rows(height);
+    // libpng's row type is not const, but writing only reads the rows.
+    for (std::uint32_t y = 0; y < height; ++y) rows[y] = const_cast<png_bytep>(data + std::size_t(y) * row_bytes);
+    if (!write_step(structs.png, structs.info, width, height, bit_depth, color_type, rows.data())) {
+        throw Error(where, std::string("cannot write PNG: ") + context.message);
+    }
+    return std::move(out).str();
+}
+
+void write_bytes_atomically(const std::filesystem::path& path, const std::string& bytes)
+{
+    write_file_atomically(path, [&](std::ofstream& out) { out.write(bytes.data(), std::streamsize(bytes.size())); });
 }
 
 // Opens the file, checks the signature and reads the header; `structs` and `in` must outlive the
@@ -246,30 +251,41 @@ void read_pixels(const std::string& where, ReadStructs& structs, const PngContex
 
 }  // namespace
 
-void write_png(const std::filesystem::path& path, const RgbImage& image)
+std::string png_file_bytes(const RgbImage& image, const std::string& where)
 {
-    check_size(path.string(), image.width, image.height);
+    check_size(where, image.width, image.height);
     const std::size_t expected = std::size_t(image.width) * image.height * 3;
     if (image.pixels.size() != expected) {
-        throw Error(path.string(), "image of " + std::to_string(image.width) + "x" + std::to_string(image.height) +
-                                       " needs " + std::to_string(expected) + " bytes of rgb, has " +
-                                       std::to_string(image.pixels.size()));
+        throw Error(where, "image of " + std::to_string(image.width) + "x" + std::to_string(image.height) +
+                               " needs " + std::to_string(expected) + " bytes of rgb, has " +
+                               std::to_string(image.pixels.size()));
     }
-    write_rows(path, image.width, image.height, 8, PNG_COLOR_TYPE_RGB, image.pixels.data(),
-               std::size_t(image.width) * 3);
+    return encode_rows(where, image.width, image.height, 8, PNG_COLOR_TYPE_RGB, image.pixels.data(),
+                       std::size_t(image.width) * 3);
+}
+
+std::string png_gray16_file_bytes(std::uint32_t width, std::uint32_t height, std::span<const std::uint16_t> values,
+                                  const std::string& where)
+{
+    check_size(where, width, height);
+    const std::size_t expected = std::size_t(width) * height;
+    if (values.size() != expected) {
+        throw Error(where, "image of " + std::to_string(width) + "x" + std::to_string(height) + " needs " +
+                               std::to_string(expected) + " values, has " + std::to_string(values.size()));
+    }
+    return encode_rows(where, width, height, 16, PNG_COLOR_TYPE_GRAY, reinterpret_cast<const std::uint8_t*>(values.data()),
+                       std::size_t(width) * 2);
+}
+
+void write_png(const std::filesystem::path& path, const RgbImage& image)
+{
+    write_bytes_atomically(path, png_file_bytes(image, path.string()));
 }
 
 void write_png_gray16(const std::filesystem::path& path, std::uint32_t width, std::uint32_t height,
                       std::span<const std::uint16_t> values)
 {
-    check_size(path.string(), width, height);
-    const std::size_t expected = std::size_t(width) * height;
-    if (values.size() != expected) {
-        throw Error(path.string(), "image of " + std::to_string(width) + "x" + std::to_string(height) + " needs " +
-                                       std::to_string(expected) + " values, has " + std::to_string(values.size()));
-    }
-    write_rows(path, width, height, 16, PNG_COLOR_TYPE_GRAY, reinterpret_cast<const std::uint8_t*>(values.data()),
-               std::size_t(width) * 2);
+    write_bytes_atomically(path, png_gray16_file_bytes(width, height, values, path.string()));
 }
 
 RgbImage read_png_rgb(const std::filesystem::path& path)

@@ -41,6 +41,8 @@ Model describe_object(const SyntheticScene& scene, const PointCloud& surface, co
 // Writes `json` indented, atomically. File names in the document may not be UTF-8: their bad bytes
 // become U+FFFD, not an exception.
 void write_json_file(const std::filesystem::path& path, const nlohmann::ordered_json& json);
+// The text write_json_file writes.
+std::string json_file_text(const nlohmann::ordered_json& json);
 
 // One scene of a dataset manifest, for a scene write_synthetic_scene_files wrote into the directory
 // `name` beside the manifest: its cloud, ground truth and (when it has one) fovea config.

@@ -75,11 +75,15 @@ Model describe_object(const SyntheticScene& scene, const PointCloud& surface, co
     return model;
 }
 
+std::string json_file_text(const nlohmann::ordered_json& json)
+{
+    return json.dump(2, ' ', false, nlohmann::ordered_json::error_handler_t::replace) + '\n';
+}
+
 void write_json_file(const std::filesystem::path& path, const nlohmann::ordered_json& json)
 {
-    write_file_atomically(path, [&](std::ofstream& out) {
-        out << json.dump(2, ' ', false, nlohmann::ordered_json::error_handler_t::replace) << '\n';
-    });
+    const std::string text = json_file_text(json);
+    write_file_atomically(path, [&](std::ofstream& out) { out << text; });
 }
 
 }  // namespace detail
@@ -447,8 +451,15 @@ void write_synthetic_models(const std::filesystem::path& directory, const Synthe
                                             " model clouds for " + std::to_string(scene.shapes.size()) + " shapes");
     prepare_output_directory(directory);
     const std::vector<std::string> model_files = detail::model_cloud_files(scene);
-    for (std::size_t s = 0; s < scene.shapes.size(); ++s) write_cloud(directory / model_files[s], dataset.models[s]);
-    if (dataset.model.features.size() > 0) write_model_cache(directory / detail::model_cache_file(scene), dataset.model);
+    // All or none, as the scene's files below.
+    StagedFiles files;
+    for (std::size_t s = 0; s < scene.shapes.size(); ++s) {
+        const std::filesystem::path path = directory / model_files[s];
+        files.stage(path, cloud_file_bytes(path, dataset.models[s]));
+    }
+    if (dataset.model.features.size() > 0)
+        files.stage(directory / detail::model_cache_file(scene), model_cache_bytes(dataset.model));
+    files.commit();
 }
 
 void write_synthetic_dataset(const std::filesystem::path& directory, const SyntheticDataset& dataset)
@@ -466,8 +477,12 @@ void write_synthetic_scene_files(const std::filesystem::path& directory, const S
     const Scan& scan = dataset.scan;
     std::vector<std::string> model_files = detail::model_cloud_files(scene);
     for (std::string& file : model_files) file = (model_directory / file).generic_string();
-    write_cloud(directory / "scene.pcd", scan.cloud, {CloudEncoding::binary, true});
-    write_png_gray16(directory / "labels.png", scan.cloud.width, scan.cloud.height, scan.labels);
+    // The scene's files are staged and renamed together at the end: a failure half-way (a full
+    // disk, a name taken by a directory) leaves an earlier scene's files as they were, not a mix.
+    StagedFiles files;
+    files.stage(directory / "scene.pcd", cloud_file_bytes(directory / "scene.pcd", scan.cloud, {CloudEncoding::binary, true}));
+    files.stage(directory / "labels.png", png_gray16_file_bytes(scan.cloud.width, scan.cloud.height, scan.labels,
+                                                                (directory / "labels.png").string()));
 
     const Pose world_to_camera = scene.camera.inverse();
     nlohmann::ordered_json truth_instances = nlohmann::ordered_json::array();
@@ -491,7 +506,8 @@ void write_synthetic_scene_files(const std::filesystem::path& directory, const S
                            {"transform", pose_json(transform)},
                            {"pose_in_world", pose_json(object.pose)}});
     }
-    write_json_file(directory / "scene.gt.json", {{"model", model_files[0]}, {"instances", truth_instances}});
+    files.stage(directory / "scene.gt.json",
+                detail::json_file_text({{"model", model_files[0]}, {"instances", truth_instances}}));
 
     const SensorParams& sensor = dataset.sensor;
     const Camera camera = scan.camera;
@@ -512,13 +528,13 @@ void write_synthetic_scene_files(const std::filesystem::path& directory, const S
         manifest["frame"] = {{"index", dataset.frame->index},
                              {"noise_seed", dataset.frame->noise_seed},
                              {"heading_deg", dataset.frame->heading_deg}};
-    write_json_file(directory / "scene.json", manifest);
+    files.stage(directory / "scene.json", detail::json_file_text(manifest));
     // A scene without instances has no fovea to place, and a config needs one structure.
     if (!dataset.fovea.structures.empty()) {
-        write_file_atomically(directory / "fovea.json", [&](std::ofstream& out) { out << to_json(dataset.fovea) << '\n'; });
-        write_file_atomically(directory / "fovea_all.json",
-                              [&](std::ofstream& out) { out << to_json(fovea_covering_all(scene)) << '\n'; });
+        files.stage(directory / "fovea.json", to_json(dataset.fovea) + '\n');
+        files.stage(directory / "fovea_all.json", to_json(fovea_covering_all(scene)) + '\n');
     }
+    files.commit();
 }
 
 }  // namespace mfpc

@@ -82,6 +82,11 @@ Model load_model(const std::filesystem::path& path, const FeatureParams& params,
 /// @param model The model.
 /// @throws mfpc::Error naming the file when it cannot be created, written or renamed into place.
 void write_model_cache(const std::filesystem::path& path, const Model& model);
+/// @brief The bytes of the cache write_model_cache writes, for a caller that writes several
+/// outputs all or none.
+/// @param model The model.
+/// @return The whole file.
+std::string model_cache_bytes(const Model& model);
 /// @brief Reads a model cache written by write_model_cache.
 /// @param path The cache file.
 /// @return The model as it was written.

@@ -11,6 +11,7 @@
 #include <cstdint>
 #include <filesystem>
 #include <span>
+#include <string>
 #include <vector>
 
 namespace mfpc {
@@ -22,6 +23,24 @@ struct RgbImage {
     std::uint32_t height = 0;         ///< Height in pixels.
     std::vector<std::uint8_t> pixels;  ///< width * height * 3 bytes, row by row from the top.
 };
+
+/// @brief The bytes of the 8-bit RGB PNG write_png writes, for a caller that writes several
+/// outputs all or none.
+/// @param image The image.
+/// @param where The name errors give.
+/// @return The whole file.
+/// @throws mfpc::Error as write_png does for the image.
+std::string png_file_bytes(const RgbImage& image, const std::string& where);
+
+/// @brief The bytes of the 16-bit greyscale PNG write_png_gray16 writes.
+/// @param width Width in pixels.
+/// @param height Height in pixels.
+/// @param values width * height values, row by row from the top.
+/// @param where The name errors give.
+/// @return The whole file.
+/// @throws mfpc::Error as write_png_gray16 does for the image.
+std::string png_gray16_file_bytes(std::uint32_t width, std::uint32_t height, std::span<const std::uint16_t> values,
+                                  const std::string& where);
 
 /// @brief Writes an 8-bit RGB PNG, atomically.
 /// @param path The file.
