@@ -53,9 +53,14 @@ void run_experiment_command(const ExperimentOptions& options, const GlobalOption
     report.threads = active_threads();
 
     const std::string markdown = to_markdown(report);
-    write_file_atomically(directory / "report.json", [&](std::ofstream& out) { out << to_json(report); });
-    write_file_atomically(directory / "report.csv", [&](std::ofstream& out) { out << to_csv(report); });
-    write_file_atomically(directory / "report.md", [&](std::ofstream& out) { out << markdown; });
+    // The reports and pictures all or none (the charts, drawn by gnuplot from them, come after).
+    StagedFiles files;
+    files.stage(directory / "report.json", to_json(report));
+    files.stage(directory / "report.csv", to_csv(report));
+    files.stage(directory / "report.md", markdown);
+    const auto stage_png = [&](const std::filesystem::path& path, const RgbImage& image) {
+        files.stage(path, png_file_bytes(image, path.string()));
+    };
 
     // A picture of each strategy's foveated scene: the points it kept, coloured by region, in the
     // sensor's view (a serial strategy's single runs drawn together).
@@ -63,7 +68,7 @@ void run_experiment_command(const ExperimentOptions& options, const GlobalOption
         const ExperimentStrategy& s = config.strategies[i];
         const std::filesystem::path image = directory / ("strategy_" + std::to_string(i + 1) + ".png");
         if (s.mode == FoveationMode::none) {
-            write_png(image, render_cloud(scene, nullptr, {}, RenderParams{}));
+            stage_png(image, render_cloud(scene, nullptr, {}, RenderParams{}));
             continue;
         }
         RenderParams params;
@@ -73,11 +78,12 @@ void run_experiment_command(const ExperimentOptions& options, const GlobalOption
         const std::optional<PlacementResult>& placed = report.outcomes[i].placement;
         const FoveationConfig* fovea = placed ? &placed->config : &s.fovea;
         if (report.outcomes[i].foveated.empty()) {
-            write_png(image, render_cloud(scene, nullptr, {}, RenderParams{}));  // nothing placed: it ran plain
+            stage_png(image, render_cloud(scene, nullptr, {}, RenderParams{}));  // nothing placed: it ran plain
             continue;
         }
-        write_png(image, render_cloud(report.outcomes[i].foveated, fovea, {}, params));
+        stage_png(image, render_cloud(report.outcomes[i].foveated, fovea, {}, params));
     }
+    files.commit();
     if (!options.no_charts) write_experiment_charts(directory, to_chart_data(report));
 
     if (print_table(global)) std::cout << markdown;
