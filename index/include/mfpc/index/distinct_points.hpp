@@ -32,11 +32,10 @@ struct DistinctPoints {
     std::vector<std::uint32_t> representatives(std::size_t n) const;
 };
 
-/// @brief Finds the exact duplicates of a cloud: a hash of each point's bits, a radix sort by hash,
-/// and a sort by coordinates within each run of equal hashes; O(n log n) at worst (a run of
-/// duplicates is already in order), whatever the duplicates.
-/// The same result at any thread count.
-/// @param points The cloud (fewer than 2^32 points).
+/// @brief Finds the exact duplicates of a cloud: each point's bits hashed into an open-addressing
+/// table, so expected O(n) whatever the duplicates (copies of one point cost one comparison each).
+/// Serial, so the same result at any thread count.
+/// @param points The cloud (fewer than 2^31 points).
 /// @return Where each position first occurs.
 DistinctPoints distinct_points(std::span<const Point> points);
 
