@@ -75,11 +75,6 @@ bool load_as_count(const std::uint8_t* bytes, ScalarType type, bool swap_bytes, 
     return true;
 }
 
-std::uint32_t load_bits32(const std::uint8_t* bytes)
-{
-    return load<std::uint32_t>(bytes, false);
-}
-
 std::size_t max_text_rows(std::size_t bytes, std::size_t values_per_row)
 {
     return bytes / (2 * std::max<std::size_t>(values_per_row, 1)) + 1;
