@@ -104,6 +104,15 @@ void lzf_decompress(std::span<const std::uint8_t> compressed, std::span<std::uin
             out_pos += length;
             continue;
         }
+        if (16 % distance == 0 && out_size - out_pos >= length + 16) {
+            // A period dividing 16 (runs of one float, NaN padding above all): 16 bytes of the
+            // pattern, stored as often as the run needs.
+            std::uint8_t pattern[16];
+            for (std::size_t i = 0; i < 16; ++i) pattern[i] = target[std::ptrdiff_t(i % distance) - std::ptrdiff_t(distance)];
+            for (std::size_t stored = 0; stored < length; stored += 16) std::memcpy(target + stored, pattern, 16);
+            out_pos += length;
+            continue;
+        }
         std::size_t copied = std::min(distance, length);
         std::memcpy(target, target - distance, copied);
         while (copied < length) {
