@@ -17,6 +17,7 @@
 #include <vector>
 
 #include "mfpc/core/cloud_io.hpp"
+#include "mfpc/core/error.hpp"
 #include "mfpc/core/foveation_config.hpp"
 #include "mfpc/kernels/shot.hpp"
 #include "mfpc/recognition/model.hpp"
@@ -300,7 +301,7 @@ int main(int argc, char** argv)
         model_seed();
         png_seeds();
         byte_seeds();
-    } catch (const Error& error) {
+    } catch (const mfpc::Error& error) {
         std::fprintf(stderr, "mfpc_fuzz_seeds: %s\n", error.what());
         return 1;
     }
