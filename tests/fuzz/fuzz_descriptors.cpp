@@ -1,5 +1,5 @@
 // Normals, uniform sampling, BOARD frames and SHOT descriptors on a small fuzzed cloud (at most
-// 256 points on a 2.5 mm grid in a 10 cm cube, so neighbourhoods are full and degenerate ones
+// 128 points on a 2.5 mm grid in a 10 cm cube, so neighbourhoods are full and degenerate ones
 // common), with fuzzed k and radii. Asserts every output is defined or flagged undefined as the
 // kernels document: a normal is a unit vector facing the viewpoint or all NaN; keypoints are
 // distinct points of the cloud; a frame is a rotation or all NaN, and the counts of undefined ones
@@ -63,7 +63,7 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
     ShotParams shot;
     shot.radius = bytes.grid(0.005f, 0.05f, 9);
     std::vector<Point> points;
-    while (bytes.left() >= 6 && points.size() < 256) {
+    while (bytes.left() >= 6 && points.size() < 128) {
         points.emplace_back(bytes.grid(0, 0.1f, 40), bytes.grid(0, 0.1f, 40), bytes.grid(0, 0.1f, 40));
     }
     if (points.empty()) return 0;
