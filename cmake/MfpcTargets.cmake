@@ -11,6 +11,19 @@ if(MFPC_SANITIZE)
   add_link_options(-fsanitize=address,undefined)
 endif()
 
+# The fuzz build instruments everything it compiles for libFuzzer's coverage (fuzzer-no-link: the
+# libraries get the counters, only the fuzz targets link libFuzzer's main) and stops at the first
+# ASan or UBSan report, so that each one is a finding with a reproducer.
+if(MFPC_BUILD_FUZZ)
+  if(NOT CMAKE_CXX_COMPILER_ID STREQUAL "Clang")
+    message(FATAL_ERROR "MFPC_BUILD_FUZZ needs clang (libFuzzer): use the fuzz preset")
+  endif()
+  add_compile_options(-fsanitize=fuzzer-no-link,address,undefined -fno-sanitize-recover=undefined
+                      -fno-omit-frame-pointer
+                      -fsanitize-ignorelist=${PROJECT_SOURCE_DIR}/tests/fuzz/sanitizer_ignorelist.txt)
+  add_link_options(-fsanitize=address,undefined)
+endif()
+
 include(GNUInstallDirs)
 set(CMAKE_INSTALL_RPATH "$ORIGIN/../${CMAKE_INSTALL_LIBDIR}")
 

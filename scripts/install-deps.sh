@@ -9,6 +9,7 @@ packages=(
   libtbb-dev libeigen3-dev libopenvdb-dev libflann-dev libpcl-dev libembree-dev
   libgtest-dev libgmock-dev libbenchmark-dev
   libcli11-dev nlohmann-json3-dev libpng-dev gnuplot-nox
+  clang libclang-rt-14-dev  # scripts/fuzz.sh: the fuzz preset (clang 14, libFuzzer, ASan, UBSan)
   jq  # scripts/compare-outputs.sh
   libopenmpi-dev openmpi-bin  # mfpc batch under mpirun
   libopen3d-dev  # bench/ only: the Open3D baseline of bench_baselines

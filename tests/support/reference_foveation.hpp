@@ -208,7 +208,9 @@ inline Downsampled reference_downsample(std::span<const Point> points,
         }
         ++sum.count;
     }
-    for (const auto& [key, sum] : sums) {
+    // Not a structured binding: clang 14 (the fuzz build) cannot capture one in the lambda below.
+    for (const auto& entry : sums) {
+        const Sum& sum = entry.second;
         const double count = double(sum.count);
         result.points.emplace_back(float(sum.xyz[0] / count), float(sum.xyz[1] / count),
                                    float(sum.xyz[2] / count));
