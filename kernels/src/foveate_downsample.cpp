@@ -307,7 +307,9 @@ FoveatedCloud detail::downsample_labelled(const PointCloud& cloud, const Foveati
                               .subspan(regions.run_offsets[std::size_t(r)],
                                        regions.run_offsets[std::size_t(r) + 1] - regions.run_offsets[std::size_t(r)]);
         }
-        if (region.runs.empty()) region.members = regions.region(s, k);
+        // Regions of runs list no members: the member list is empty there, and an offset into it
+        // would be undefined even for an empty region.
+        if (!use_runs) region.members = regions.region(s, k);
         outputs[std::size_t(r)] = downsample_region(cloud, region, structure.level_box(k), density, downsample, s, k);
         result.regions[std::size_t(r)] = {s, k, density, count, outputs[std::size_t(r)].points.size()};
     });

@@ -168,11 +168,6 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
         }
 
         // The one-shot foveate: the same (label, source point) pairs as downsampling the regions.
-        // TODO(issue 32 fuzz finding A): its regions list no members, and downsampling an empty
-        // region after a non-empty one takes FoveationRegions::region of an empty vector at a
-        // non-zero offset (UBSan: non-zero offset applied to a null pointer,
-        // foveate_downsample.cpp:310); skipped until that is fixed.
-        if (fuzz::skip_known_findings()) return 0;
         const FoveatedCloud once = foveate(cloud, config, FoveationMode::mfpc);
         const FoveatedCloud regions = downsample_regions(cloud, treated, config.structures, config.downsample);
         fuzz::check(once.cloud.size() == regions.cloud.size(), "one-shot foveate keeps another number of points");

@@ -34,9 +34,6 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
         const Point p = raw ? Point(bytes.raw_float(), bytes.raw_float(), bytes.raw_float())
                             : Point(bytes.grid(-0.5f, 0.5f, 64), bytes.grid(-0.5f, 0.5f, 64), bytes.grid(0.3f, 2, 64));
         if (!fuzz::finite(p)) continue;
-        // TODO(issue 32 finding 2): Embree asserts ray.valid() for views built from coordinates
-        // from about 1e19; skip them until the renderer guards its input range.
-        if (fuzz::skip_known_findings() && p.cwiseAbs().maxCoeff() > 1e18f) continue;
         cloud.points.push_back(p);
     }
     if (cloud.empty()) return 0;
