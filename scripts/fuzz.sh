@@ -5,6 +5,8 @@
 #   scripts/fuzz.sh [SECONDS_PER_TARGET] [TARGET ...]     e.g. scripts/fuzz.sh 20 read_pcd foveate
 #   MFPC_FUZZ_TARGETS="read_pcd foveate" scripts/fuzz.sh  the same subset through the environment
 #   MFPC_FUZZ_KNOWN=1 scripts/fuzz.sh ...                 do not skip inputs of known open findings
+#   MFPC_FUZZ_RUNS=1000000 scripts/fuzz.sh 1800 ...       stop each target after that many executions
+#                                                         (or at SECONDS, whichever comes first)
 #
 # Each target works in build/fuzz/corpus/<target>/, outside the tracked files: seeded there from
 # tests/fuzz/corpus/<target>/ and the reproducers of tests/fuzz/regressions/<target>/ (but those its
@@ -67,6 +69,7 @@ for target in "${targets[@]}"; do
   mkdir -p "$corpus" "$crashes"
   args=(-max_total_time="$seconds" -rss_limit_mb=2048 -malloc_limit_mb=2048 -timeout=10
         -print_final_stats=1 -artifact_prefix="$crashes/")
+  [[ -n "${MFPC_FUZZ_RUNS:-}" ]] && args+=(-runs="$MFPC_FUZZ_RUNS")
   dict="$(dict_of "$target")"
   [[ -n "$dict" && -f "tests/fuzz/dict/$dict.dict" ]] && args+=(-dict="tests/fuzz/dict/$dict.dict")
   cp -n "tests/fuzz/corpus/$target"/* "$corpus"/ 2>/dev/null || true
