@@ -34,7 +34,8 @@ struct DescribedScene {
 };
 
 /// Describes a scene as recognize() does before matching: foveation (optional), normals,
-/// keypoints, BOARD, SHOT, and the verification evidence.
+/// keypoints, BOARD, SHOT, and the verification evidence. Exact copies of a point are described
+/// once (distinct_points): they add no surface, and would make the searches quadratic.
 /// @param scene the scene cloud (must outlive the result)
 /// @param params the recognition parameters (their scene side; the rest is kept for the models)
 /// @param foveation how to foveate the scene first

@@ -36,7 +36,7 @@ Point model_centroid(const Model& model);
 /// when the cloud carries normals (a model sampled all around a mesh), they orient the estimated
 /// ones. Keypoints are described at the working resolution when params.resolution > 0
 /// (describe_at_resolution), else by uniform sampling of the cloud (describe_keypoints).
-/// @param cloud The model cloud.
+/// @param cloud The model cloud (exact copies of a point are described once, see distinct_points).
 /// @param params The description parameters.
 /// @param source The file the model came from, kept in the model and named by errors.
 /// @param timings When given, the time of each step is added to it.
