@@ -86,7 +86,7 @@ struct RenderOverlay {
 
 /// @brief What render_cloud drew.
 struct RenderStats {
-    std::size_t points = 0;          ///< Discs of the cloud.
+    std::size_t points = 0;          ///< Discs of the cloud: one per distinct position (copies drawn once).
     std::size_t overlay_points = 0;  ///< Discs of all overlays.
     std::size_t boxes = 0;           ///< Level boxes drawn (structures x (m + 1)).
     float point_radius = 0.0f;       ///< The median disc radius of the cloud (metres).
