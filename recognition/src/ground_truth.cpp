@@ -46,6 +46,28 @@ void check_keys(const json& object, const std::string& prefix, std::initializer_
     }
 }
 
+// An array of 3 finite numbers under `name` in `object`.
+Eigen::Vector3f read_vector(const json& object, const char* name, const std::string& where)
+{
+    const std::string key = where + "." + name;
+    const auto value = object.find(name);
+    if (value == object.end()) throw Error(key, "missing");
+    if (!value->is_array() || value->size() != 3 ||
+        !std::all_of(value->begin(), value->end(), [](const json& v) { return v.is_number(); }))
+        throw Error(key, "must be an array of 3 numbers");
+    const Eigen::Vector3f vector((*value)[0].get<float>(), (*value)[1].get<float>(), (*value)[2].get<float>());
+    if (!vector.allFinite()) throw Error(key, "must be finite");
+    return vector;
+}
+
+// read_vector, non-zero, as a unit vector.
+Eigen::Vector3f read_direction(const json& object, const char* name, const std::string& where)
+{
+    const Eigen::Vector3f direction = read_vector(object, name, where);
+    if (direction.norm() < 1e-6f) throw Error(where + "." + name, "must be a non-zero vector");
+    return direction.normalized();
+}
+
 GroundTruthInstance read_instance(const json& instance, const std::string& where)
 {
     if (!instance.is_object()) throw Error(where, "must be an object");
@@ -87,20 +109,25 @@ GroundTruthInstance read_instance(const json& instance, const std::string& where
     if (const auto symmetry = instance.find("symmetry"); symmetry != instance.end()) {
         const std::string key = where + ".symmetry";
         if (!symmetry->is_object()) throw Error(key, "must be an object {\"axis\": [x, y, z], \"order\": N}");
-        check_keys(*symmetry, key + ".", {"axis", "order"});
-        const auto axis = symmetry->find("axis");
+        check_keys(*symmetry, key + ".", {"axis", "order", "flip"});
+        out.symmetry_axis = read_direction(*symmetry, "axis", key);
         const auto order = symmetry->find("order");
-        if (axis == symmetry->end()) throw Error(key + ".axis", "missing");
         if (order == symmetry->end()) throw Error(key + ".order", "missing");
-        if (!axis->is_array() || axis->size() != 3 ||
-            !std::all_of(axis->begin(), axis->end(), [](const json& v) { return v.is_number(); }))
-            throw Error(key + ".axis", "must be an array of 3 numbers");
-        const Eigen::Vector3f direction((*axis)[0].get<float>(), (*axis)[1].get<float>(), (*axis)[2].get<float>());
-        if (!direction.allFinite() || direction.norm() < 1e-6f) throw Error(key + ".axis", "must be a non-zero vector");
         if (!order->is_number_unsigned() || order->get<std::uint64_t>() > 360)
             throw Error(key + ".order", "must be an integer 0..360 (0: any angle)");
-        out.symmetry_axis = direction.normalized();
         out.symmetry_order = int(order->get<std::uint64_t>());
+        if (const auto flip = symmetry->find("flip"); flip != symmetry->end()) {
+            const std::string flip_key = key + ".flip";
+            if (!flip->is_object()) throw Error(flip_key, "must be an object {\"axis\": [x, y, z], \"point\": [x, y, z]}");
+            check_keys(*flip, flip_key + ".", {"axis", "point"});
+            out.flip_axis = read_direction(*flip, "axis", flip_key);
+            out.flip_point = read_vector(*flip, "point", flip_key);
+            // A half-turn about a line across the axis maps the axis onto itself; about any other
+            // line the turns and the flip would not be the symmetries of one object.
+            if (std::abs(out.flip_axis.dot(out.symmetry_axis)) > 1e-3f)
+                throw Error(flip_key + ".axis", "must be perpendicular to the symmetry axis");
+            out.symmetry_flip = true;
+        }
     }
     return out;
 }
@@ -114,6 +141,13 @@ std::vector<Pose> GroundTruthInstance::equivalent_transforms() const
     for (int k = 0; k < turns; ++k) {
         const float angle = float(2.0 * 3.14159265358979323846 * k / turns);
         out.push_back(transform * Eigen::AngleAxisf(angle, symmetry_axis));
+    }
+    if (symmetry_flip) {
+        // The half-turn about the line through flip_point: x -> R (x - p) + p.
+        Pose flip = Pose::Identity();
+        flip.linear() = Eigen::AngleAxisf(float(3.14159265358979323846), flip_axis).toRotationMatrix();
+        flip.translation() = flip_point - flip.linear() * flip_point;
+        for (int k = 0; k < turns; ++k) out.push_back(out[std::size_t(k)] * flip);
     }
     return out;
 }

@@ -168,6 +168,26 @@ TEST(GroundTruth, ReadsASymmetryAndItsEquivalentTransforms)
     EXPECT_EQ(GroundTruthInstance{}.equivalent_transforms().size(), 1u);
 }
 
+TEST(GroundTruth, ReadsAFlipAndItsDihedralTransforms)
+{
+    // A box 26 cm tall standing on its origin: a half-turn about z, and one about the x axis
+    // through its mid-height (upside down, in place).
+    TempDir dir;
+    const auto path = dir.write(
+        "scene.gt.json",
+        one_instance(", \"symmetry\": {\"axis\": [0, 0, 1], \"order\": 2, \"flip\": {\"axis\": [2, 0, 0], \"point\": [0, 0, 0.13]}}"));
+    const GroundTruthInstance box = read_ground_truth(path).instances.at(0);
+    EXPECT_TRUE(box.symmetry_flip);
+    EXPECT_TRUE(box.flip_axis.isApprox(Eigen::Vector3f::UnitX()));
+    const std::vector<Pose> equivalent = box.equivalent_transforms();
+    ASSERT_EQ(equivalent.size(), 4u);
+    // Upside down about the mid-height: the bottom centre goes to the top centre, and back.
+    EXPECT_TRUE((equivalent[2] * Eigen::Vector3f(0, 0, 0)).isApprox(Eigen::Vector3f(0, 0, 0.26f), 1e-6f));
+    EXPECT_TRUE((equivalent[2] * Eigen::Vector3f(0.1f, 0.02f, 0.26f)).isApprox(Eigen::Vector3f(0.1f, -0.02f, 0), 1e-6f));
+    // Both half-turns: the third axis, y, through the mid-height.
+    EXPECT_TRUE((equivalent[3] * Eigen::Vector3f(0.1f, 0.02f, 0.26f)).isApprox(Eigen::Vector3f(-0.1f, 0.02f, 0), 1e-6f));
+}
+
 TEST(GroundTruth, RejectsBadSymmetries)
 {
     TempDir dir;
@@ -182,6 +202,12 @@ TEST(GroundTruth, RejectsBadSymmetries)
               "instances[0].symmetry.order: must be an integer 0..360 (0: any angle)");
     EXPECT_EQ(error_of(dir, one_instance(", \"symmetry\": {\"axis\": [0, 0, 1], \"order\": 2, \"about\": 1}")),
               "instances[0].symmetry.about: unknown key");
+    EXPECT_EQ(error_of(dir, one_instance(", \"symmetry\": {\"axis\": [0, 0, 1], \"order\": 2, \"flip\": 1}")),
+              "instances[0].symmetry.flip: must be an object {\"axis\": [x, y, z], \"point\": [x, y, z]}");
+    EXPECT_EQ(error_of(dir, one_instance(", \"symmetry\": {\"axis\": [0, 0, 1], \"order\": 2, \"flip\": {\"axis\": [1, 0, 0]}}")),
+              "instances[0].symmetry.flip.point: missing");
+    EXPECT_EQ(error_of(dir, one_instance(", \"symmetry\": {\"axis\": [0, 0, 1], \"order\": 2, \"flip\": {\"axis\": [1, 0, 1], \"point\": [0, 0, 0]}}")),
+              "instances[0].symmetry.flip.axis: must be perpendicular to the symmetry axis");
 }
 
 }  // namespace

@@ -7,6 +7,7 @@
 #include <cstring>
 #include <limits>
 #include <map>
+#include <numbers>
 #include <numeric>
 #include <set>
 #include <string>
@@ -163,6 +164,37 @@ TEST(BuiltinObjects, StandOnTheFloorCentredOnTheAxis)
         if (name == "mug" || name == "jug") continue;
         EXPECT_NEAR(bounds.min.x(), -bounds.max.x(), 1e-6f);
         EXPECT_NEAR(bounds.min.y(), -bounds.max.y(), 1e-6f);
+    }
+}
+
+// Each symmetry the ground truth is given (builtin_object_symmetry, builtin_object_flips) maps the
+// mesh onto itself: every vertex moved by it lies on the surface. A flip the object does not have
+// (the carton's gable, the jug's cap) moves some vertex centimetres off it.
+TEST(BuiltinObjects, SymmetriesMapTheMeshOntoItself)
+{
+    for (std::string_view name : builtin_object_names()) {
+        SCOPED_TRACE(std::string(name));
+        const TriangleMesh mesh = make_builtin_object(name);
+        const float mid_height = 0.5f * (mesh.bounds().min.z() + mesh.bounds().max.z());
+        auto farthest_moved = [&](const Eigen::Affine3f& symmetry) {
+            double farthest = 0;
+            for (const Eigen::Vector3f& v : mesh.vertices)
+                farthest = std::max(farthest, test::distance_to_mesh(mesh, symmetry * v));
+            return farthest;
+        };
+        const int order = builtin_object_symmetry(name);
+        const float turn = order == 0 ? 0.7f : 2.0f * float(std::numbers::pi) / float(order);
+        if (order != 1) {
+            EXPECT_LT(farthest_moved(Eigen::Affine3f(Eigen::AngleAxisf(turn, Eigen::Vector3f::UnitZ()))), 1e-4);
+        }
+        const Eigen::Affine3f flip = Eigen::Translation3f(0, 0, mid_height) *
+                                     Eigen::AngleAxisf(float(std::numbers::pi), Eigen::Vector3f::UnitX()) *
+                                     Eigen::Translation3f(0, 0, -mid_height);
+        if (builtin_object_flips(name)) {
+            EXPECT_LT(farthest_moved(flip), 1e-4);
+        } else {
+            EXPECT_GT(farthest_moved(flip), 0.005);
+        }
     }
 }
 

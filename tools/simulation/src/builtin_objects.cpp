@@ -349,6 +349,13 @@ int builtin_object_symmetry(std::string_view name)
     return 1;
 }
 
+bool builtin_object_flips(std::string_view name)
+{
+    if (name == "box") return true;
+    make_builtin_object(name);  // throws the unknown-name error
+    return false;
+}
+
 TriangleMesh make_builtin_object(std::string_view name)
 {
     if (name == "carton") return make_carton();

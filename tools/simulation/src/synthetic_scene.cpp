@@ -131,6 +131,7 @@ SceneShape make_builtin_shape(const std::string& name)
     shape.name = name;
     shape.mesh = make_builtin_object(name);
     shape.symmetry_order = builtin_object_symmetry(name);
+    shape.symmetry_flip = builtin_object_flips(name);
     return shape;
 }
 
@@ -437,7 +438,18 @@ GroundTruth ground_truth_of(const SyntheticDataset& dataset)
         instance.object = dataset.scene.shapes[object.shape].name;
         instance.visible_points = long(dataset.scan.visible_points[i]);
         if (i < dataset.visible_fraction.size()) instance.visible_fraction = dataset.visible_fraction[i];
-        instance.symmetry_order = dataset.scene.shapes[object.shape].symmetry_order;
+        const SceneShape& shape = dataset.scene.shapes[object.shape];
+        instance.symmetry_order = shape.symmetry_order;
+        if (shape.symmetry_flip) {
+            float low = std::numeric_limits<float>::infinity(), high = -low;
+            for (const Eigen::Vector3f& p : outline(shape)) {
+                low = std::min(low, p.z());
+                high = std::max(high, p.z());
+            }
+            instance.symmetry_flip = true;
+            instance.flip_axis = Eigen::Vector3f::UnitX();
+            instance.flip_point = Eigen::Vector3f(0, 0, 0.5f * (low + high));
+        }
         truth.instances.push_back(instance);
     }
     return truth;
@@ -491,7 +503,13 @@ void write_synthetic_scene_files(const std::filesystem::path& directory, const S
                                            {"object", truth.object},
                                            {"visible_points", truth.visible_points}};
         if (truth.visible_fraction >= 0) instance["visible_fraction"] = shortest_double(truth.visible_fraction);
-        if (truth.symmetry_order != 1) instance["symmetry"] = {{"axis", {0, 0, 1}}, {"order", truth.symmetry_order}};
+        if (truth.symmetry_order != 1 || truth.symmetry_flip) {
+            instance["symmetry"] = {{"axis", {0, 0, 1}}, {"order", truth.symmetry_order}};
+            if (truth.symmetry_flip)
+                instance["symmetry"]["flip"] = {
+                    {"axis", {truth.flip_axis.x(), truth.flip_axis.y(), truth.flip_axis.z()}},
+                    {"point", {truth.flip_point.x(), truth.flip_point.y(), shortest_double(truth.flip_point.z())}}};
+        }
         truth_instances.push_back(instance);
     }
     nlohmann::ordered_json objects = nlohmann::ordered_json::array();

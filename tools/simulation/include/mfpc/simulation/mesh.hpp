@@ -62,6 +62,13 @@ TriangleMesh make_builtin_object(std::string_view name);
 /// @return N (0: any angle; 1: none).
 /// @throws mfpc::Error naming the object for an unknown name.
 int builtin_object_symmetry(std::string_view name);
+/// @brief Whether a half-turn about the object's x axis through its mid-height also leaves the
+/// mesh unchanged: the box (its chamfers alike top and bottom) is the same upside down, so its
+/// symmetry is dihedral; the carton's gable, the bottle's neck and the handles are not.
+/// @param name The object's name.
+/// @return Whether the object has that flip symmetry.
+/// @throws mfpc::Error naming the object for an unknown name.
+bool builtin_object_flips(std::string_view name);
 
 /// @brief Reads a mesh from .ply or .obj.
 ///

@@ -29,6 +29,8 @@ struct SceneShape {
     PointCloud discs;       ///< Points with normals, used when the mesh is empty.
     float disc_radius = 0;  ///< Metres, for discs.
     int symmetry_order = 1;  ///< About the z axis: 1 none, N turns of 360/N degrees, 0 any angle.
+    /// A half-turn about the x axis through the shape's mid-height leaves it unchanged too (a box).
+    bool symmetry_flip = false;
 };
 
 /// @brief The points that stand for a shape's extent (own frame): mesh vertices or disc centres.
