@@ -392,10 +392,14 @@ std::vector<Instance> refine_and_verify(std::vector<Instance> instances, std::sp
             accepted.push_back(n);
             continue;
         }
-        // Free space, for every model point whichever way its surface faces: a solid object there
-        // would have stopped the sensor's ray, so a surface observed behind it refutes it. A point
-        // that faces the sensor and is not hidden (something observed in front of it: no evidence
-        // for or against it) is visible: only those are looked up for fitness.
+        // Free space, for every model point whichever way its surface faces but edge on: a solid
+        // object there would have stopped the sensor's ray, so a surface observed behind it
+        // refutes it. A surface seen within acos(min_facing_cos) of edge on is not asked: its
+        // points all project onto a strip a pixel or two wide (a box's 20 cm face, 1.4 m away and
+        // turned almost along the rays, onto 3 columns), whose rays pass beside it to the table
+        // at a sub-pixel error of the pose, and the sensor has no return from it to say it is
+        // there. A point that faces the sensor and is not hidden (something observed in front of
+        // it: no evidence for or against it) is visible: only those are looked up for fitness.
         if (refine.enabled) place(instance.transform, points, scratch.placed);  // ICP moved it
         const std::vector<Point>& at = scratch.placed;
         std::size_t facing = 0, visible = 0, inliers = 0, projected = 0, violations = 0;
@@ -403,15 +407,19 @@ std::vector<Instance> refine_and_verify(std::vector<Instance> instances, std::sp
         for (std::size_t i = 0; i < points.size(); ++i) {
             const Point& p = at[i];
             bool hidden = false;
-            if (const std::size_t pixel = pixel_of(scene, p); pixel != no_pixel && std::isfinite(scene.depth[pixel])) {
-                ++projected;
-                // Every pixel around must show a surface behind it: a point on the object's
-                // outline (a side seen edge on, most of all) projects to either side of it as
-                // its pixel rounds, and the ray through the pixel beside may pass the object.
-                if (nearest_depth_around(scene, pixel) > p.z() + verify.free_space_margin) ++violations;
-                hidden = scene.depth[pixel] < p.z() - verify.free_space_margin;
-            }
             const bool faces = faces_camera(instance.transform, p, normals[i], verify.min_facing_cos);
+            const bool edge_on = normals[i].allFinite() && !faces &&
+                                 !faces_camera(instance.transform, p, -normals[i], verify.min_facing_cos);
+            if (const std::size_t pixel = pixel_of(scene, p); pixel != no_pixel && std::isfinite(scene.depth[pixel])) {
+                hidden = scene.depth[pixel] < p.z() - verify.free_space_margin;
+                if (!edge_on) {
+                    ++projected;
+                    // Every pixel around must show a surface behind it: a point on the object's
+                    // outline projects to either side of it as its pixel rounds, and the ray
+                    // through the pixel beside may pass the object.
+                    if (nearest_depth_around(scene, pixel) > p.z() + verify.free_space_margin) ++violations;
+                }
+            }
             if (faces) {
                 ++facing;
                 facing_spread.add(p);
