@@ -12,6 +12,7 @@
 #include <nlohmann/json.hpp>
 
 #include "mfpc/core/error.hpp"
+#include "mfpc/core/point_cloud.hpp"
 #include "mfpc/core/detail/json_check.hpp"
 #include "mfpc/core/detail/text_file.hpp"
 
@@ -122,6 +123,8 @@ GroundTruthInstance read_instance(const json& instance, const std::string& where
             check_keys(*flip, flip_key + ".", {"axis", "point"});
             out.flip_axis = read_direction(*flip, "axis", flip_key);
             out.flip_point = read_vector(*flip, "point", flip_key);
+            if (!(out.flip_point.cwiseAbs().maxCoeff() <= max_coordinate))
+                throw Error(flip_key + ".point", std::string("must lie within +-") + max_coordinate_text);
             // A half-turn about a line across the axis maps the axis onto itself; about any other
             // line the turns and the flip would not be the symmetries of one object.
             if (std::abs(out.flip_axis.dot(out.symmetry_axis)) > 1e-3f)

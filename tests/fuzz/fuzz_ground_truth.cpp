@@ -18,7 +18,10 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
             fuzz::check(instance.symmetry_axis.allFinite(), "a symmetry axis is not finite");
             const auto poses = instance.equivalent_transforms();
             const std::size_t turns = instance.symmetry_order == 0 ? 360 : std::size_t(instance.symmetry_order);
-            fuzz::check(poses.size() == turns, "not one equivalent pose per turn of the symmetry");
+            fuzz::check(poses.size() == turns * (instance.symmetry_flip ? 2 : 1),
+                        "not one equivalent pose per turn of the symmetry (twice with a flip)");
+            fuzz::check(!instance.symmetry_flip || (instance.flip_axis.allFinite() && instance.flip_point.allFinite()),
+                        "a flip line is not finite");
             for (const Pose& pose : poses) fuzz::check(pose.matrix().allFinite(), "an equivalent pose is not finite");
         }
     });

@@ -200,7 +200,7 @@ void config_seeds()
     write_text("fuzz_ground_truth", "two.gt.json",
                R"({"model": "carton.pcd", "instances": [{"transform": )" + identity +
                    R"(, "object": "carton", "visible_points": 1200, "visible_fraction": 0.8},
-  {"transform": [0, -1, 0, 0.1, 1, 0, 0, -0.2, 0, 0, 1, 1.5, 0, 0, 0, 1], "symmetry": {"axis": [0, 0, 1], "order": 2}}]}
+  {"transform": [0, -1, 0, 0.1, 1, 0, 0, -0.2, 0, 0, 1, 1.5, 0, 0, 0, 1], "symmetry": {"axis": [0, 0, 1], "order": 2, "flip": {"axis": [1, 0, 0], "point": [0, 0, 0.13]}}}]}
 )");
     write_text("fuzz_ground_truth", "none.gt.json", R"({"instances": []})" "\n");
     write_text("fuzz_instance_poses", "result.json",

@@ -208,6 +208,8 @@ TEST(GroundTruth, RejectsBadSymmetries)
               "instances[0].symmetry.flip.point: missing");
     EXPECT_EQ(error_of(dir, one_instance(", \"symmetry\": {\"axis\": [0, 0, 1], \"order\": 2, \"flip\": {\"axis\": [1, 0, 1], \"point\": [0, 0, 0]}}")),
               "instances[0].symmetry.flip.axis: must be perpendicular to the symmetry axis");
+    EXPECT_EQ(error_of(dir, one_instance(", \"symmetry\": {\"axis\": [0, 0, 1], \"order\": 2, \"flip\": {\"axis\": [1, 0, 0], \"point\": [0, 0, 3e38]}}")),
+              "instances[0].symmetry.flip.point: must lie within +-1e9");
 }
 
 }  // namespace
