@@ -23,6 +23,8 @@
 #include "mfpc/recognition/ground_truth.hpp"
 #include "mfpc/recognition/model.hpp"
 #include "mfpc/recognition/recognize.hpp"
+#include "mfpc/recognition/described_scene.hpp"
+#include "mfpc/recognition/diagnosis.hpp"
 #include "json_fields.hpp"
 
 namespace mfpc {
@@ -173,7 +175,7 @@ SceneOutcome run_scene(const DatasetScene& scene, const Model* model, const std:
         GroundTruth truth;
         if (!out.negative) truth = read_ground_truth(scene.ground_truth);
         for (const GroundTruthInstance& instance : truth.instances)
-            out.truth.push_back({instance.object, instance.visible_fraction, false});
+            out.truth.push_back({instance.object, instance.visible_fraction, false, {}});
         FoveationConfig config;
         if (run.fovea) config = read_foveation_config(scene.fovea);
         auto start = Clock::now();
@@ -210,6 +212,17 @@ SceneOutcome run_scene(const DatasetScene& scene, const Model* model, const std:
         out.evaluation = evaluate(result, *model, truth, options.evaluation);
         for (const int match : out.evaluation.instance_match)
             if (match >= 0) out.truth.at(std::size_t(match)).found = true;
+        if (options.explain && !nothing_placed && out.evaluation.instances_missed > 0 &&
+            (params.refine.enabled || params.verify.enabled)) {
+            const std::unique_ptr<DescribedScene> described = describe_scene(cloud, params, foveation);
+            std::vector<Instance> hypotheses;
+            const RecognitionResult again = recognize_described(*described, *model, &hypotheses);
+            const std::vector<TruthDiagnosis> diagnoses =
+                diagnose_truth(*described, *model, again, hypotheses, truth, options.evaluation);
+            for (std::size_t t = 0; t < diagnoses.size(); ++t)
+                if (!out.truth[t].found && diagnoses[t].stage != LossStage::found)
+                    out.truth[t].lost = to_string(diagnoses[t].stage);
+        }
         out.scene_keypoints = result.counts.scene_keypoints;
         out.correspondences = result.counts.correspondences;
         out.points_used = result.counts.scene_points_used;
@@ -456,8 +469,11 @@ std::string to_json(const DatasetReport& report)
     ordered_json scenes = ordered_json::array();
     for (const SceneOutcome& s : report.scenes) {
         ordered_json truth = ordered_json::array();
-        for (const TruthOutcome& t : s.truth)
-            truth.push_back({{"object", t.object}, {"visible_fraction", shortest_double(t.visible_fraction)}, {"found", t.found}});
+        for (const TruthOutcome& t : s.truth) {
+            ordered_json item = {{"object", t.object}, {"visible_fraction", shortest_double(t.visible_fraction)}, {"found", t.found}};
+            if (!t.lost.empty()) item["lost"] = t.lost;
+            truth.push_back(item);
+        }
         const Evaluation& e = s.evaluation;
         ordered_json item = {{"scene", s.scene}, {"model", s.model},       {"strategy", s.strategy},
                              {"group", s.group}, {"negative", s.negative}, {"error", nullptr}};
@@ -568,6 +584,10 @@ std::string to_table(const DatasetReport& report)
         const Evaluation& e = s.evaluation;
         std::string note = s.negative ? "negative" : "";
         if (!s.fallback.empty()) note += (note.empty() ? "" : "; ") + s.fallback;
+        std::string lost;
+        for (const TruthOutcome& t : s.truth)
+            if (!t.lost.empty()) lost += (lost.empty() ? "" : ", ") + t.lost;
+        if (!lost.empty()) note += (note.empty() ? "" : "; ") + ("lost at " + lost);
         std::snprintf(line, sizeof line, "%-28s %-8s %5zu %5zu %6zu %9.3f %9.3f %8.1f %8s  ", s.scene.c_str(),
                       s.strategy.c_str(), e.instances_true, e.instances_false, e.instances_missed,
                       e.correspondence_precision, e.correspondence_sensitivity, s.scene_ms,

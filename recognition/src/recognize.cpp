@@ -153,7 +153,8 @@ std::unique_ptr<DescribedScene> describe_scene(const PointCloud& input, const Re
     return described;
 }
 
-RecognitionResult recognize_described(const DescribedScene& described, const Model& model)
+RecognitionResult recognize_described(const DescribedScene& described, const Model& model,
+                                      std::vector<Instance>* hypotheses)
 {
     const auto start = Clock::now();
     const RecognitionParams& params = described.params;
@@ -174,6 +175,7 @@ RecognitionResult recognize_described(const DescribedScene& described, const Mod
                            : gc_grouping(model.features, result.scene_features, result.correspondences, params.grouping);
     result.counts.instances_before_verification = result.instances.size();
     result.timings.group = elapsed_ms(t);
+    if (hypotheses) *hypotheses = result.instances;
 
     if (described.evidence) {
         t = Clock::now();

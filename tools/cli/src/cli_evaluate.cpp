@@ -23,6 +23,7 @@ struct EvaluateOptions {
     float min_visible = 0.5f;
     std::string csv;
     std::string placements;
+    bool explain = false;
 };
 
 void run_evaluate(const EvaluateOptions& options, const GlobalOptions& global)
@@ -33,6 +34,7 @@ void run_evaluate(const EvaluateOptions& options, const GlobalOptions& global)
     run.plain = options.runs != "fovea";
     run.foveated = options.runs != "plain";
     run.min_visible_fraction = options.min_visible;
+    run.explain = options.explain;
     for (const std::string& name : split_list(options.placements)) {
         try {
             run.placements.push_back(parse_placement_strategy(name, "--placement"));
@@ -88,6 +90,10 @@ void add_evaluate_command(CLI::App& app, const GlobalOptions& global)
                         "ground truth: what placement would give knowing where the objects are)")
         ->type_name("LIST");
     command->add_option("--csv", options->csv, "Also write one CSV row per scene run")->type_name("PATH");
+    command->add_flag("--explain", options->explain,
+                      "Say where each missed instance was lost (no correct correspondence, no hypothesis near it, "
+                      "or the verification test that refused it): in the table's note and the JSON; each scene "
+                      "with a miss runs a second time");
     command->callback([options, &global] { run_evaluate(*options, global); });
 }
 

@@ -76,6 +76,10 @@ struct DatasetOptions {
     /// tallied apart: a recall goal is for the objects a sensor could be expected to recognise.
     float min_visible_fraction = 0.5f;
     EvaluationParams evaluation;  ///< The tolerances every scene is scored with.
+    /// Say where each missed true instance was lost (diagnose_truth): the scene is described and
+    /// matched a second time for it, so its times stay those of the scored run. Needs refinement
+    /// or verification on (the evidence it re-verifies with); without, nothing is said.
+    bool explain = false;
 };
 
 /// @brief One ground-truth instance of a scene and whether a true instance claimed it.
@@ -83,6 +87,9 @@ struct TruthOutcome {
     std::string object;            ///< GroundTruthInstance::object (empty when not given).
     float visible_fraction = -1;   ///< -1 when not given.
     bool found = false;            ///< Whether a found instance was matched to it.
+    /// With DatasetOptions::explain, where a missed instance was lost (to_string(LossStage));
+    /// empty when found or not explained.
+    std::string lost;
 };
 
 /// @brief One scene run one way (plain or foveated).

@@ -48,8 +48,11 @@ std::unique_ptr<DescribedScene> describe_scene(const PointCloud& scene, const Re
 /// instances as recognize() of that model in that scene. Timings hold only this model's stages.
 /// @param described the scene, described once
 /// @param model the model to find
+/// @param hypotheses when given, receives grouping's instances before refinement and verification
+/// (diagnose_truth reads them)
 /// @return the model's result (the scene's features copied in, for evaluate())
-RecognitionResult recognize_described(const DescribedScene& described, const Model& model);
+RecognitionResult recognize_described(const DescribedScene& described, const Model& model,
+                                      std::vector<Instance>* hypotheses = nullptr);
 
 /// Several models in one scene, described once: per model the same instances as recognize() of
 /// that model alone, in the models' order.
