@@ -239,6 +239,7 @@ RecognitionParams parse_recognition_params(std::string_view json_text, const std
             q.number("rim_distance", p.verify.rim_distance);
             q.integer("min_rim_probes", p.verify.min_rim_probes);
             q.number("settled_fitness", p.verify.settled_fitness);
+            q.boolean("try_turns", p.verify.try_turns);
             q.number("free_space_margin", p.verify.free_space_margin);
             q.number("max_free_space_fraction", p.verify.max_free_space_fraction);
             q.boolean("merge", p.verify.merge);
@@ -294,6 +295,7 @@ std::string to_json(const RecognitionParams& p)
           {"rim_distance", clean(p.verify.rim_distance)},
           {"min_rim_probes", p.verify.min_rim_probes},
           {"settled_fitness", clean(p.verify.settled_fitness)},
+          {"try_turns", p.verify.try_turns},
           {"free_space_margin", clean(p.verify.free_space_margin)},
           {"max_free_space_fraction", clean(p.verify.max_free_space_fraction)},
           {"merge", p.verify.merge},

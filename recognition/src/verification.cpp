@@ -361,6 +361,110 @@ std::vector<Instance> refine_and_verify(std::vector<Instance> instances, std::sp
     // the object, none does).
     std::optional<std::vector<Probe>> probes;
     std::optional<Scratch> probe_scratch;
+    // The model points facing the sensor at a pose, and those of them with a scene point within
+    // the ICP distance (scratch.placed then holds the model where the pose puts it).
+    struct NearCount {
+        std::size_t facing = 0, near = 0;
+    };
+    auto near_count = [&](const Pose& pose) {
+        NearCount count;
+        place(pose, points, scratch.placed);
+        for (std::size_t i = 0; i < points.size(); ++i) {
+            scratch.wanted[i] = faces_camera(pose, scratch.placed[i], normals[i], verify.min_facing_cos);
+            count.facing += scratch.wanted[i];
+        }
+        nearest_scene_points(scratch.wanted, scene, std::max(refine.max_distance, verify.inlier_distance), scratch);
+        count.near = std::size_t(
+            std::count_if(scratch.nearest.begin(), scratch.nearest.end(), [](std::uint32_t m) { return m != no_match; }));
+        return count;
+    };
+    // ICP from an instance's pose, then every test: the number of model points fitting the scene
+    // when it passes them all (scratch.placed then holds the model where the pose puts it).
+    auto refine_and_test = [&](Instance& instance) -> std::optional<std::size_t> {
+            if (refine.enabled) {
+                const Fit fit = icp(instance.transform, points, scene, refine, scratch);
+                instance.transform = fit.pose;
+                instance.rmse = fit.rmse;
+            }
+            // Free space, for every model point whichever way its surface faces but edge on: a solid
+            // object there would have stopped the sensor's ray, so a surface observed behind it
+            // refutes it. A surface seen within acos(min_facing_cos) of edge on is not asked: its
+            // points all project onto a strip a pixel or two wide (a box's 20 cm face, 1.4 m away and
+            // turned almost along the rays, onto 3 columns), whose rays pass beside it to the table
+            // at a sub-pixel error of the pose, and the sensor has no return from it to say it is
+            // there. A point that faces the sensor and is not hidden (something observed in front of
+            // it: no evidence for or against it) is visible: only those are looked up for fitness.
+            if (refine.enabled) place(instance.transform, points, scratch.placed);  // ICP moved it
+            const std::vector<Point>& at = scratch.placed;
+            std::size_t facing = 0, visible = 0, inliers = 0, projected = 0, violations = 0;
+            Spread facing_spread, inlier_spread;
+            for (std::size_t i = 0; i < points.size(); ++i) {
+                const Point& p = at[i];
+                bool hidden = false;
+                const bool faces = faces_camera(instance.transform, p, normals[i], verify.min_facing_cos);
+                const bool edge_on = normals[i].allFinite() && !faces &&
+                                     !faces_camera(instance.transform, p, -normals[i], verify.min_facing_cos);
+                if (const std::size_t pixel = pixel_of(scene, p); pixel != no_pixel && std::isfinite(scene.depth[pixel])) {
+                    hidden = scene.depth[pixel] < p.z() - verify.free_space_margin;
+                    if (!edge_on) {
+                        ++projected;
+                        // Every pixel around must show a surface behind it: a point on the object's
+                        // outline projects to either side of it as its pixel rounds, and the ray
+                        // through the pixel beside may pass the object.
+                        if (nearest_depth_around(scene, pixel) > p.z() + verify.free_space_margin) ++violations;
+                    }
+                }
+                if (faces) {
+                    ++facing;
+                    facing_spread.add(p);
+                }
+                scratch.wanted[i] = faces && !hidden;
+                visible += scratch.wanted[i];
+            }
+            nearest_scene_points(scratch.wanted, scene, verify.inlier_distance, scratch);
+            for (std::size_t i = 0; i < points.size(); ++i)
+                if (scratch.nearest[i] != no_match) {
+                    ++inliers;
+                    inlier_spread.add(at[i]);
+                }
+            // A side of the model that is itself flat (a box seen face on) cannot be told from a face
+            // laid on a table by its shape: the test passes it.
+            const float facing_thickness = facing_spread.thickness();
+            instance.thickness_ratio = facing_thickness < verify.flat_side ? 1.0f : inlier_spread.thickness() / facing_thickness;
+            instance.fitness = visible ? float(inliers) / float(visible) : 0.0f;
+            instance.coverage = facing ? float(inliers) / float(facing) : 0.0f;
+            instance.free_space_violation = projected ? float(violations) / float(projected) : 0.0f;
+            if (instance.fitness < verify.min_inlier_fraction || instance.coverage < verify.min_coverage ||
+                instance.free_space_violation > verify.max_free_space_fraction ||
+                instance.thickness_ratio < verify.min_thickness_ratio)
+                return std::nullopt;
+            if (!probes) {
+                probes = rim_probes(points, normals, model_points, verify.rim_distance);
+                probe_scratch.emplace(probes->size());
+            }
+            const RimEvidence rim = rim_evidence(instance.transform, *probes, scratch.nearest, scene, verify, *probe_scratch);
+            const std::size_t rim_settled = rim.continued + rim.free;
+            instance.continuation = rim_settled ? float(rim.continued) / float(rim_settled) : 0.0f;
+            if (rim_refutes(rim.continued, rim_settled, verify)) return std::nullopt;
+            return inliers;
+    };
+    // Quarter and half turns about the model's principal axes through its centroid: the poses a
+    // nearly symmetric object is mistaken for.
+    std::vector<Pose> turns;
+    if (verify.try_turns && points.size() >= 3) {
+        Spread spread;
+        for (const Point& p : points) spread.add(p);
+        const Eigen::Vector3d centre = spread.sum / double(spread.count);
+        const Eigen::Matrix3d covariance = spread.products / double(spread.count) - centre * centre.transpose();
+        const Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> axes(covariance);
+        for (int axis = 2; axis >= 0; --axis)
+            for (const double quarter : {1.0, 2.0, 3.0}) {
+                Pose turn = Pose::Identity();
+                turn.linear() = Eigen::AngleAxisd(quarter * M_PI / 2.0, axes.eigenvectors().col(axis)).toRotationMatrix().cast<float>();
+                turn.translation() = (centre - turn.linear().cast<double>() * centre).cast<float>();
+                turns.push_back(turn);
+            }
+    }
     for (std::size_t n = 0; n < instances.size(); ++n) {
         Instance& instance = instances[n];
         if (verify.enabled) place(instance.transform, points, scratch.placed);  // the start, for both checks
@@ -373,85 +477,47 @@ std::vector<Instance> refine_and_verify(std::vector<Instance> instances, std::sp
         // A hypothesis that explains too little of the coverage asked for, even with the looser ICP
         // distance, will not make it: reject it before paying for ICP.
         if (verify.enabled) {
-            std::size_t facing = 0;
-            for (std::size_t i = 0; i < points.size(); ++i) {
-                scratch.wanted[i] = faces_camera(instance.transform, scratch.placed[i], normals[i], verify.min_facing_cos);
-                facing += scratch.wanted[i];
-            }
-            nearest_scene_points(scratch.wanted, scene, std::max(refine.max_distance, verify.inlier_distance), scratch);
-            const std::size_t near = std::size_t(
-                std::count_if(scratch.nearest.begin(), scratch.nearest.end(), [](std::uint32_t m) { return m != no_match; }));
-            if (float(near) < verify.prefilter_coverage * verify.min_coverage * float(facing) || facing == 0) continue;
-        }
-        if (refine.enabled) {
-            const Fit fit = icp(instance.transform, points, scene, refine, scratch);
-            instance.transform = fit.pose;
-            instance.rmse = fit.rmse;
+            const NearCount start = near_count(instance.transform);
+            if (float(start.near) < verify.prefilter_coverage * verify.min_coverage * float(start.facing) ||
+                start.facing == 0)
+                continue;
         }
         if (!verify.enabled) {
+            if (refine.enabled) {
+                const Fit fit = icp(instance.transform, points, scene, refine, scratch);
+                instance.transform = fit.pose;
+                instance.rmse = fit.rmse;
+            }
             accepted.push_back(n);
             continue;
         }
-        // Free space, for every model point whichever way its surface faces but edge on: a solid
-        // object there would have stopped the sensor's ray, so a surface observed behind it
-        // refutes it. A surface seen within acos(min_facing_cos) of edge on is not asked: its
-        // points all project onto a strip a pixel or two wide (a box's 20 cm face, 1.4 m away and
-        // turned almost along the rays, onto 3 columns), whose rays pass beside it to the table
-        // at a sub-pixel error of the pose, and the sensor has no return from it to say it is
-        // there. A point that faces the sensor and is not hidden (something observed in front of
-        // it: no evidence for or against it) is visible: only those are looked up for fitness.
-        if (refine.enabled) place(instance.transform, points, scratch.placed);  // ICP moved it
-        const std::vector<Point>& at = scratch.placed;
-        std::size_t facing = 0, visible = 0, inliers = 0, projected = 0, violations = 0;
-        Spread facing_spread, inlier_spread;
-        for (std::size_t i = 0; i < points.size(); ++i) {
-            const Point& p = at[i];
-            bool hidden = false;
-            const bool faces = faces_camera(instance.transform, p, normals[i], verify.min_facing_cos);
-            const bool edge_on = normals[i].allFinite() && !faces &&
-                                 !faces_camera(instance.transform, p, -normals[i], verify.min_facing_cos);
-            if (const std::size_t pixel = pixel_of(scene, p); pixel != no_pixel && std::isfinite(scene.depth[pixel])) {
-                hidden = scene.depth[pixel] < p.z() - verify.free_space_margin;
-                if (!edge_on) {
-                    ++projected;
-                    // Every pixel around must show a surface behind it: a point on the object's
-                    // outline projects to either side of it as its pixel rounds, and the ray
-                    // through the pixel beside may pass the object.
-                    if (nearest_depth_around(scene, pixel) > p.z() + verify.free_space_margin) ++violations;
+        const std::optional<std::size_t> fitting = refine_and_test(instance);
+        if (!fitting) continue;
+        std::size_t inliers = *fitting;
+        // A nearly symmetric object (a square carton told apart by its gable, a box by its
+        // proportions, a mug by its handle) is often posed a turn away from its truth, a pose
+        // that passes every test on the body it shares with it. Turned about each of the model's
+        // principal axes by quarter turns and refined again, it keeps the pose that explains
+        // most of the scene, as the merge below judges two instances of one object.
+        // A settled instance explains nearly all it could (no other pose fits much better), and a
+        // turn that starts explaining less than the pose it would replace is not refined.
+        if (verify.try_turns && instance.fitness < verify.settled_fitness) {
+            const std::size_t near = near_count(instance.transform).near;
+            for (const Pose& turn : turns) {
+                Instance twin;
+                twin.transform = instance.transform * turn;
+                if (near_count(twin.transform).near < near) continue;
+                const std::optional<std::size_t> more = refine_and_test(twin);
+                if (more && *more > inliers) {
+                    twin.votes = instance.votes;
+                    twin.correspondences = std::move(instance.correspondences);
+                    instance = std::move(twin);
+                    inliers = *more;
                 }
             }
-            if (faces) {
-                ++facing;
-                facing_spread.add(p);
-            }
-            scratch.wanted[i] = faces && !hidden;
-            visible += scratch.wanted[i];
+            place(instance.transform, points, scratch.placed);
         }
-        nearest_scene_points(scratch.wanted, scene, verify.inlier_distance, scratch);
-        for (std::size_t i = 0; i < points.size(); ++i)
-            if (scratch.nearest[i] != no_match) {
-                ++inliers;
-                inlier_spread.add(at[i]);
-            }
-        // A side of the model that is itself flat (a box seen face on) cannot be told from a face
-        // laid on a table by its shape: the test passes it.
-        const float facing_thickness = facing_spread.thickness();
-        instance.thickness_ratio = facing_thickness < verify.flat_side ? 1.0f : inlier_spread.thickness() / facing_thickness;
-        instance.fitness = visible ? float(inliers) / float(visible) : 0.0f;
-        instance.coverage = facing ? float(inliers) / float(facing) : 0.0f;
-        instance.free_space_violation = projected ? float(violations) / float(projected) : 0.0f;
-        if (instance.fitness < verify.min_inlier_fraction || instance.coverage < verify.min_coverage ||
-            instance.free_space_violation > verify.max_free_space_fraction ||
-            instance.thickness_ratio < verify.min_thickness_ratio)
-            continue;
-        if (!probes) {
-            probes = rim_probes(points, normals, model_points, verify.rim_distance);
-            probe_scratch.emplace(probes->size());
-        }
-        const RimEvidence rim = rim_evidence(instance.transform, *probes, scratch.nearest, scene, verify, *probe_scratch);
-        const std::size_t rim_settled = rim.continued + rim.free;
-        instance.continuation = rim_settled ? float(rim.continued) / float(rim_settled) : 0.0f;
-        if (rim_refutes(rim.continued, rim_settled, verify)) continue;
+        const std::vector<Point>& at = scratch.placed;
         accepted.push_back(n);
         accepted_inliers.push_back(inliers);
         if (verify.merge) {

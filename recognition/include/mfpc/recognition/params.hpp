@@ -123,6 +123,12 @@ struct VerifyParams {
     /// overlapping it are not verified. Poses slid along a flat face still explain most of it (a box
     /// slid 12 mm along its 10 cm side: 0.96), hence a bar this high.
     float settled_fitness = 0.99f;
+    /// An accepted instance is also refined and tested from its pose turned by quarter and half
+    /// turns about each principal axis of the model (through its centroid), and keeps the pose
+    /// with the most model points fitting the scene: a nearly symmetric object (a square carton
+    /// told apart by its gable, a box by its proportions, a mug by its handle) is often posed a
+    /// turn away from its truth, on the body the two poses share.
+    bool try_turns = true;
     bool merge = true;                   ///< Merge instances whose placed models overlap: ...
     float merge_distance = 0.01f;        ///< ... points closer than this (metres) overlap, ...
     float merge_overlap = 0.2f;          ///< ... and this fraction of overlapping points merges.
