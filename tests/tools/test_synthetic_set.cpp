@@ -153,6 +153,19 @@ TEST(SyntheticSet, GeneratedEvaluatedAndReportedWithABrokenScene)
     EXPECT_THROW(evaluate_dataset(set, RecognitionParams{}, false, "", options), Error);
 }
 
+// A set of one Kinect scene as `mfpc synth-set --presets kinect --scenes 1 --first-seed SEED
+// --shapes SHAPE` writes it: scene k of the default set is seed k + 1 with shape k of the five.
+Dataset one_kinect_scene(const test::TempDir& dir, std::uint32_t seed, const std::string& shape)
+{
+    SyntheticSetParams params;
+    params.presets = {"kinect"};
+    params.scenes = 1;
+    params.first_seed = seed;
+    params.shapes = {shape};
+    write_synthetic_set(dir / "set", params);
+    return read_dataset(dir / "set" / "dataset.json");
+}
+
 // Two boxes on a Kinect's table (the set's scene kinect_033). With the defaults both are found,
 // upside down or not (the box's flip symmetry): the nearer one, 1.35 m away and fully seen, has
 // its 20 x 26 cm side turned along the rays, and its true pose was refused for free space (12.5%
@@ -164,13 +177,7 @@ TEST(SyntheticSet, GeneratedEvaluatedAndReportedWithABrokenScene)
 TEST(SyntheticSet, TwoBoxesFoundAndWhereMissedOnesWereLost)
 {
     const test::TempDir dir;
-    SyntheticSetParams set_params;
-    set_params.presets = {"kinect"};
-    set_params.scenes = 1;
-    set_params.first_seed = 34;
-    set_params.shapes = {"box"};
-    write_synthetic_set(dir / "set", set_params);
-    const Dataset set = read_dataset(dir / "set" / "dataset.json");
+    const Dataset set = one_kinect_scene(dir, 34, "box");
     DatasetOptions options;
     options.foveated = false;
     options.explain = true;
@@ -205,13 +212,7 @@ TEST(SyntheticSet, TwoBoxesFoundAndWhereMissedOnesWereLost)
 TEST(SyntheticSet, ACartonPosedAQuarterTurnOffIsTurnedBack)
 {
     const test::TempDir dir;
-    SyntheticSetParams set_params;
-    set_params.presets = {"kinect"};
-    set_params.scenes = 1;
-    set_params.first_seed = 16;
-    set_params.shapes = {"carton"};
-    write_synthetic_set(dir / "set", set_params);
-    const Dataset set = read_dataset(dir / "set" / "dataset.json");
+    const Dataset set = one_kinect_scene(dir, 16, "carton");
     DatasetOptions options;
     options.foveated = false;
     RecognitionParams unturned;
