@@ -381,72 +381,72 @@ std::vector<Instance> refine_and_verify(std::vector<Instance> instances, std::sp
     // ICP from an instance's pose, then every test: the number of model points fitting the scene
     // when it passes them all (scratch.placed then holds the model where the pose puts it).
     auto refine_and_test = [&](Instance& instance) -> std::optional<std::size_t> {
-            if (refine.enabled) {
-                const Fit fit = icp(instance.transform, points, scene, refine, scratch);
-                instance.transform = fit.pose;
-                instance.rmse = fit.rmse;
-            }
-            // Free space, for every model point whichever way its surface faces but edge on: a solid
-            // object there would have stopped the sensor's ray, so a surface observed behind it
-            // refutes it. A surface seen within acos(min_facing_cos) of edge on is not asked: its
-            // points all project onto a strip a pixel or two wide (a box's 20 cm face, 1.4 m away and
-            // turned almost along the rays, onto 3 columns), whose rays pass beside it to the table
-            // at a sub-pixel error of the pose, and the sensor has no return from it to say it is
-            // there. A point that faces the sensor and is not hidden (something observed in front of
-            // it: no evidence for or against it) is visible: only those are looked up for fitness.
-            if (refine.enabled) place(instance.transform, points, scratch.placed);  // ICP moved it
-            const std::vector<Point>& at = scratch.placed;
-            std::size_t facing = 0, visible = 0, inliers = 0, projected = 0, violations = 0;
-            Spread facing_spread, inlier_spread;
-            for (std::size_t i = 0; i < points.size(); ++i) {
-                const Point& p = at[i];
-                bool hidden = false;
-                const bool faces = faces_camera(instance.transform, p, normals[i], verify.min_facing_cos);
-                const bool edge_on = normals[i].allFinite() && !faces &&
-                                     !faces_camera(instance.transform, p, -normals[i], verify.min_facing_cos);
-                if (const std::size_t pixel = pixel_of(scene, p); pixel != no_pixel && std::isfinite(scene.depth[pixel])) {
-                    hidden = scene.depth[pixel] < p.z() - verify.free_space_margin;
-                    if (!edge_on) {
-                        ++projected;
-                        // Every pixel around must show a surface behind it: a point on the object's
-                        // outline projects to either side of it as its pixel rounds, and the ray
-                        // through the pixel beside may pass the object.
-                        if (nearest_depth_around(scene, pixel) > p.z() + verify.free_space_margin) ++violations;
-                    }
+        if (refine.enabled) {
+            const Fit fit = icp(instance.transform, points, scene, refine, scratch);
+            instance.transform = fit.pose;
+            instance.rmse = fit.rmse;
+        }
+        // Free space, for every model point whichever way its surface faces but edge on: a solid
+        // object there would have stopped the sensor's ray, so a surface observed behind it
+        // refutes it. A surface seen within acos(min_facing_cos) of edge on is not asked: its
+        // points all project onto a strip a pixel or two wide (a box's 20 cm face, 1.4 m away and
+        // turned almost along the rays, onto 3 columns), whose rays pass beside it to the table
+        // at a sub-pixel error of the pose, and the sensor has no return from it to say it is
+        // there. A point that faces the sensor and is not hidden (something observed in front of
+        // it: no evidence for or against it) is visible: only those are looked up for fitness.
+        if (refine.enabled) place(instance.transform, points, scratch.placed);  // ICP moved it
+        const std::vector<Point>& at = scratch.placed;
+        std::size_t facing = 0, visible = 0, inliers = 0, projected = 0, violations = 0;
+        Spread facing_spread, inlier_spread;
+        for (std::size_t i = 0; i < points.size(); ++i) {
+            const Point& p = at[i];
+            bool hidden = false;
+            const bool faces = faces_camera(instance.transform, p, normals[i], verify.min_facing_cos);
+            const bool edge_on = normals[i].allFinite() && !faces &&
+                                 !faces_camera(instance.transform, p, -normals[i], verify.min_facing_cos);
+            if (const std::size_t pixel = pixel_of(scene, p); pixel != no_pixel && std::isfinite(scene.depth[pixel])) {
+                hidden = scene.depth[pixel] < p.z() - verify.free_space_margin;
+                if (!edge_on) {
+                    ++projected;
+                    // Every pixel around must show a surface behind it: a point on the object's
+                    // outline projects to either side of it as its pixel rounds, and the ray
+                    // through the pixel beside may pass the object.
+                    if (nearest_depth_around(scene, pixel) > p.z() + verify.free_space_margin) ++violations;
                 }
-                if (faces) {
-                    ++facing;
-                    facing_spread.add(p);
-                }
-                scratch.wanted[i] = faces && !hidden;
-                visible += scratch.wanted[i];
             }
-            nearest_scene_points(scratch.wanted, scene, verify.inlier_distance, scratch);
-            for (std::size_t i = 0; i < points.size(); ++i)
-                if (scratch.nearest[i] != no_match) {
-                    ++inliers;
-                    inlier_spread.add(at[i]);
-                }
-            // A side of the model that is itself flat (a box seen face on) cannot be told from a face
-            // laid on a table by its shape: the test passes it.
-            const float facing_thickness = facing_spread.thickness();
-            instance.thickness_ratio = facing_thickness < verify.flat_side ? 1.0f : inlier_spread.thickness() / facing_thickness;
-            instance.fitness = visible ? float(inliers) / float(visible) : 0.0f;
-            instance.coverage = facing ? float(inliers) / float(facing) : 0.0f;
-            instance.free_space_violation = projected ? float(violations) / float(projected) : 0.0f;
-            if (instance.fitness < verify.min_inlier_fraction || instance.coverage < verify.min_coverage ||
-                instance.free_space_violation > verify.max_free_space_fraction ||
-                instance.thickness_ratio < verify.min_thickness_ratio)
-                return std::nullopt;
-            if (!probes) {
-                probes = rim_probes(points, normals, model_points, verify.rim_distance);
-                probe_scratch.emplace(probes->size());
+            if (faces) {
+                ++facing;
+                facing_spread.add(p);
             }
-            const RimEvidence rim = rim_evidence(instance.transform, *probes, scratch.nearest, scene, verify, *probe_scratch);
-            const std::size_t rim_settled = rim.continued + rim.free;
-            instance.continuation = rim_settled ? float(rim.continued) / float(rim_settled) : 0.0f;
-            if (rim_refutes(rim.continued, rim_settled, verify)) return std::nullopt;
-            return inliers;
+            scratch.wanted[i] = faces && !hidden;
+            visible += scratch.wanted[i];
+        }
+        nearest_scene_points(scratch.wanted, scene, verify.inlier_distance, scratch);
+        for (std::size_t i = 0; i < points.size(); ++i)
+            if (scratch.nearest[i] != no_match) {
+                ++inliers;
+                inlier_spread.add(at[i]);
+            }
+        // A side of the model that is itself flat (a box seen face on) cannot be told from a face
+        // laid on a table by its shape: the test passes it.
+        const float facing_thickness = facing_spread.thickness();
+        instance.thickness_ratio = facing_thickness < verify.flat_side ? 1.0f : inlier_spread.thickness() / facing_thickness;
+        instance.fitness = visible ? float(inliers) / float(visible) : 0.0f;
+        instance.coverage = facing ? float(inliers) / float(facing) : 0.0f;
+        instance.free_space_violation = projected ? float(violations) / float(projected) : 0.0f;
+        if (instance.fitness < verify.min_inlier_fraction || instance.coverage < verify.min_coverage ||
+            instance.free_space_violation > verify.max_free_space_fraction ||
+            instance.thickness_ratio < verify.min_thickness_ratio)
+            return std::nullopt;
+        if (!probes) {
+            probes = rim_probes(points, normals, model_points, verify.rim_distance);
+            probe_scratch.emplace(probes->size());
+        }
+        const RimEvidence rim = rim_evidence(instance.transform, *probes, scratch.nearest, scene, verify, *probe_scratch);
+        const std::size_t rim_settled = rim.continued + rim.free;
+        instance.continuation = rim_settled ? float(rim.continued) / float(rim_settled) : 0.0f;
+        if (rim_refutes(rim.continued, rim_settled, verify)) return std::nullopt;
+        return inliers;
     };
     // Quarter and half turns about the model's principal axes through its centroid: the poses a
     // nearly symmetric object is mistaken for.

@@ -58,7 +58,10 @@ SceneEvidence make_scene_evidence(const PointCloud& scene, const OrganizedNeighb
 /// cannot be there); and the continuation: of the probes just past the edges of the fitting part of
 /// the model, the fraction where the scene's surface goes on rather than the sensor seeing past
 /// them (a pose slid along its object's face leaves the rest of the object there). Instances
-/// failing the limits are dropped.
+/// failing the limits are dropped. With VerifyParams::try_turns, an accepted instance that is not
+/// settled is refined and tested again from its pose turned by quarter, half and three-quarter
+/// turns about the model's principal axes (those turns that start with at least as many facing
+/// points near the scene), and keeps the pose with the most model points fitting the scene.
 ///
 /// Duplicates (placed models overlapping: merge_overlap of one's points within merge_distance of the
 /// other's): instances are taken in the order given (grouping's: most votes first), and one that
