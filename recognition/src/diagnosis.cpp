@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <limits>
+#include <optional>
 
 #include "mfpc/core/error.hpp"
 #include "mfpc/recognition/verification.hpp"
@@ -28,14 +29,15 @@ const char* to_string(LossStage stage)
 
 namespace {
 
-// The limits that refuse an instance verified with every limit open, in verification's order.
-LossStage refusing_limit(const Instance& scored, const VerifyParams& verify)
+// The first limit, in verification's order, that refuses an instance scored with every limit
+// open; nothing when these four pass it (the prefilter or the rim refused it).
+std::optional<LossStage> refusing_limit(const Instance& scored, const VerifyParams& verify)
 {
     if (scored.fitness < verify.min_inlier_fraction) return LossStage::fitness;
     if (scored.coverage < verify.min_coverage) return LossStage::coverage;
     if (scored.free_space_violation > verify.max_free_space_fraction) return LossStage::free_space;
     if (scored.thickness_ratio < verify.min_thickness_ratio) return LossStage::thickness;
-    return LossStage::found;
+    return std::nullopt;
 }
 
 }  // namespace
@@ -97,9 +99,14 @@ std::vector<TruthDiagnosis> diagnose_truth(const DescribedScene& described, cons
         open.max_continuation = 1.0f;
         open.prefilter_coverage = 0.0f;
         const std::vector<Instance> scored = verify_alone(open);
-        d.stage = scored.empty() ? LossStage::prefilter : refusing_limit(scored[0], run.verify);
-        if (d.stage != LossStage::found) continue;
-        // Fitness, coverage, free space and thickness pass it: the prefilter or the rim refused it.
+        if (scored.empty()) {
+            d.stage = LossStage::prefilter;
+            continue;
+        }
+        if (const std::optional<LossStage> limit = refusing_limit(scored[0], run.verify)) {
+            d.stage = *limit;
+            continue;
+        }
         VerifyParams no_prefilter = run.verify;
         no_prefilter.prefilter_coverage = 0.0f;
         d.stage = verify_alone(no_prefilter).empty() ? LossStage::rim : LossStage::prefilter;

@@ -467,8 +467,8 @@ std::vector<Instance> refine_and_verify(std::vector<Instance> instances, std::sp
     }
     for (std::size_t n = 0; n < instances.size(); ++n) {
         Instance& instance = instances[n];
-        if (verify.enabled) place(instance.transform, points, scratch.placed);  // the start, for both checks
         if (verify.enabled && verify.merge && any_settled) {
+            place(instance.transform, points, scratch.placed);  // the start (near_count places it again)
             bool same = false;
             for (std::size_t c = 0; c < claimed.size() && !same; ++c)
                 same = settled[c] && overlaps(scratch.placed, *claimed[c], verify);
