@@ -22,7 +22,7 @@
 #include "mfpc/core/error.hpp"
 #include "mfpc/core/detail/floor.hpp"
 #include "nearest_candidates.hpp"
-#include "radix_sort.hpp"
+#include "mfpc/index/detail/radix_sort.hpp"
 
 namespace mfpc {
 namespace {

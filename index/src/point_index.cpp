@@ -14,7 +14,7 @@
 
 #include "mfpc/core/error.hpp"
 #include "mfpc/core/detail/floor.hpp"
-#include "radix_sort.hpp"
+#include "mfpc/index/detail/radix_sort.hpp"
 
 namespace mfpc {
 

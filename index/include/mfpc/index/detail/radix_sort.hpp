@@ -1,5 +1,8 @@
 #pragma once
 
+// Internal to mfpc: never installed (cmake/MfpcTargets.cmake skips detail/ folders) and included by
+// no public header; on index's include path so that kernels/ can share it (voxel_grid).
+
 #include <algorithm>
 #include <bit>
 #include <cstddef>
