@@ -199,8 +199,13 @@ SceneOutcome run_scene(const DatasetScene& scene, const Model* model, const std:
         }
         out.structures = config.structures.size();
         const SceneFoveation foveation{config.structures.empty() ? nullptr : &config, FoveationMode::mfpc, 0};
+        // Explaining keeps the run's description and hypotheses for the diagnosis (it re-verifies
+        // with the evidence, so it needs refinement or verification on).
+        const bool explaining = options.explain && !nothing_placed && (params.refine.enabled || params.verify.enabled);
+        RecognitionTrace trace;
         RecognitionResult result;
-        if (!nothing_placed) result = recognize(*model, cloud, params, foveation);
+        if (explaining) result = recognize_traced(*model, cloud, params, foveation, trace);
+        else if (!nothing_placed) result = recognize(*model, cloud, params, foveation);
         if (run.track) {
             std::vector<PlacedInstance> found;
             for (const Instance& instance : result.instances) found.push_back({0, instance.transform});
@@ -212,13 +217,9 @@ SceneOutcome run_scene(const DatasetScene& scene, const Model* model, const std:
         out.evaluation = evaluate(result, *model, truth, options.evaluation);
         for (const int match : out.evaluation.instance_match)
             if (match >= 0) out.truth.at(std::size_t(match)).found = true;
-        if (options.explain && !nothing_placed && out.evaluation.instances_missed > 0 &&
-            (params.refine.enabled || params.verify.enabled)) {
-            const std::unique_ptr<DescribedScene> described = describe_scene(cloud, params, foveation);
-            std::vector<Instance> hypotheses;
-            const RecognitionResult again = recognize_described(*described, *model, &hypotheses);
+        if (explaining && out.evaluation.instances_missed > 0) {
             const std::vector<TruthDiagnosis> diagnoses =
-                diagnose_truth(*described, *model, again, hypotheses, truth, options.evaluation);
+                diagnose_truth(*trace.described, *model, result, trace.hypotheses, truth, options.evaluation);
             for (std::size_t t = 0; t < diagnoses.size(); ++t)
                 if (!out.truth[t].found && diagnoses[t].stage != LossStage::found)
                     out.truth[t].lost = to_string(diagnoses[t].stage);

@@ -187,12 +187,15 @@ RecognitionResult recognize_described(const DescribedScene& described, const Mod
     return result;
 }
 
-RecognitionResult recognize(const Model& model, const PointCloud& scene, const RecognitionParams& params,
-                            const SceneFoveation& foveation)
+namespace {
+
+// recognize(), handing its described scene and hypotheses to `trace` when given.
+RecognitionResult recognize_once(const Model& model, const PointCloud& scene, const RecognitionParams& params,
+                                 const SceneFoveation& foveation, RecognitionTrace* trace)
 {
     const auto start = Clock::now();
-    const std::unique_ptr<DescribedScene> described = describe_scene(scene, params, foveation);
-    RecognitionResult result = recognize_described(*described, model);
+    std::unique_ptr<DescribedScene> described = describe_scene(scene, params, foveation);
+    RecognitionResult result = recognize_described(*described, model, trace ? &trace->hypotheses : nullptr);
     // One model: the scene's stages and the model's as one run, the evidence counted as verification.
     const RecognitionTimings& scene_timings = described->timings;
     result.timings.foveate = scene_timings.foveate;
@@ -203,7 +206,22 @@ RecognitionResult recognize(const Model& model, const PointCloud& scene, const R
     if (described->evidence) result.timings.verify += described->evidence_ms;
     result.timings.total = elapsed_ms(start);
     if (foveation.keep_cloud) result.foveated = std::move(described->foveated);
+    if (trace) trace->described = std::move(described);
     return result;
+}
+
+}  // namespace
+
+RecognitionResult recognize(const Model& model, const PointCloud& scene, const RecognitionParams& params,
+                            const SceneFoveation& foveation)
+{
+    return recognize_once(model, scene, params, foveation, nullptr);
+}
+
+RecognitionResult recognize_traced(const Model& model, const PointCloud& scene, const RecognitionParams& params,
+                                   const SceneFoveation& foveation, RecognitionTrace& trace)
+{
+    return recognize_once(model, scene, params, foveation, &trace);
 }
 
 std::vector<RecognitionResult> recognize_models(std::span<const Model* const> models, const PointCloud& scene,

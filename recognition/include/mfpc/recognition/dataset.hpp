@@ -76,9 +76,9 @@ struct DatasetOptions {
     /// tallied apart: a recall goal is for the objects a sensor could be expected to recognise.
     float min_visible_fraction = 0.5f;
     EvaluationParams evaluation;  ///< The tolerances every scene is scored with.
-    /// Say where each missed true instance was lost (diagnose_truth): the scene is described and
-    /// matched a second time for it, so its times stay those of the scored run. Needs refinement
-    /// or verification on (the evidence it re-verifies with); without, nothing is said.
+    /// Say where each missed true instance was lost (diagnose_truth, on the scored run's own
+    /// description and hypotheses). Needs refinement or verification on (the evidence it
+    /// re-verifies with); without, nothing is said.
     bool explain = false;
 };
 

@@ -54,6 +54,23 @@ std::unique_ptr<DescribedScene> describe_scene(const PointCloud& scene, const Re
 RecognitionResult recognize_described(const DescribedScene& described, const Model& model,
                                       std::vector<Instance>* hypotheses = nullptr);
 
+/// What a recognize() run leaves for a diagnosis of it (diagnose_truth).
+struct RecognitionTrace {
+    std::unique_ptr<DescribedScene> described;  ///< the scene as the run described it (refers to its cloud)
+    std::vector<Instance> hypotheses;           ///< grouping's instances before refinement and verification
+};
+
+/// recognize(), keeping its described scene and grouping's hypotheses: the same result and timings.
+/// @param model the model to find
+/// @param scene the scene cloud (must outlive trace.described)
+/// @param params the recognition parameters
+/// @param foveation whether and how the scene is foveated
+/// @param trace receives the described scene and the hypotheses
+/// @return as recognize()
+/// @throws mfpc::Error as recognize()
+RecognitionResult recognize_traced(const Model& model, const PointCloud& scene, const RecognitionParams& params,
+                                   const SceneFoveation& foveation, RecognitionTrace& trace);
+
 /// Several models in one scene, described once: per model the same instances as recognize() of
 /// that model alone, in the models' order.
 /// @param models the models to find (none may be null)
