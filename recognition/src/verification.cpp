@@ -41,13 +41,13 @@ struct Spread {
         products += q * q.transpose();
         ++count;
     }
+    Eigen::Vector3d mean() const { return sum / double(count); }
+    Eigen::Matrix3d covariance() const { return products / double(count) - mean() * mean().transpose(); }
     float thickness() const
     {
         if (count < 3) return 0.0f;
-        const Eigen::Vector3d mean = sum / double(count);
-        const Eigen::Matrix3d covariance = products / double(count) - mean * mean.transpose();
         const double smallest =
-            Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d>(covariance, Eigen::EigenvaluesOnly).eigenvalues()[0];
+            Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d>(covariance(), Eigen::EigenvaluesOnly).eigenvalues()[0];
         return float(std::sqrt(std::max(smallest, 0.0)));
     }
 };
@@ -454,9 +454,8 @@ std::vector<Instance> refine_and_verify(std::vector<Instance> instances, std::sp
     if (verify.try_turns && points.size() >= 3) {
         Spread spread;
         for (const Point& p : points) spread.add(p);
-        const Eigen::Vector3d centre = spread.sum / double(spread.count);
-        const Eigen::Matrix3d covariance = spread.products / double(spread.count) - centre * centre.transpose();
-        const Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> axes(covariance);
+        const Eigen::Vector3d centre = spread.mean();
+        const Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> axes(spread.covariance());
         for (int axis = 2; axis >= 0; --axis)
             for (const double quarter : {1.0, 2.0, 3.0}) {
                 Pose turn = Pose::Identity();
