@@ -362,13 +362,13 @@ std::vector<Instance> refine_and_verify(std::vector<Instance> instances, std::sp
     std::optional<std::vector<Probe>> probes;
     std::optional<Scratch> probe_scratch;
     // The model points facing the sensor at a pose, and those of them with a scene point within
-    // the ICP distance (scratch.placed then holds the model where the pose puts it).
+    // the ICP distance: near_placed reads the model already placed at the pose in scratch.placed,
+    // near_count places it there first.
     struct NearCount {
         std::size_t facing = 0, near = 0;
     };
-    auto near_count = [&](const Pose& pose) {
+    auto near_placed = [&](const Pose& pose) {
         NearCount count;
-        place(pose, points, scratch.placed);
         for (std::size_t i = 0; i < points.size(); ++i) {
             scratch.wanted[i] = faces_camera(pose, scratch.placed[i], normals[i], verify.min_facing_cos);
             count.facing += scratch.wanted[i];
@@ -377,6 +377,10 @@ std::vector<Instance> refine_and_verify(std::vector<Instance> instances, std::sp
         count.near = std::size_t(
             std::count_if(scratch.nearest.begin(), scratch.nearest.end(), [](std::uint32_t m) { return m != no_match; }));
         return count;
+    };
+    auto near_count = [&](const Pose& pose) {
+        place(pose, points, scratch.placed);
+        return near_placed(pose);
     };
     // ICP from an instance's pose, then every test: the number of model points fitting the scene
     // when it passes them all (scratch.placed then holds the model where the pose puts it).
@@ -466,8 +470,8 @@ std::vector<Instance> refine_and_verify(std::vector<Instance> instances, std::sp
     }
     for (std::size_t n = 0; n < instances.size(); ++n) {
         Instance& instance = instances[n];
+        if (verify.enabled) place(instance.transform, points, scratch.placed);  // the start, for both checks
         if (verify.enabled && verify.merge && any_settled) {
-            place(instance.transform, points, scratch.placed);  // the start (near_count places it again)
             bool same = false;
             for (std::size_t c = 0; c < claimed.size() && !same; ++c)
                 same = settled[c] && overlaps(scratch.placed, *claimed[c], verify);
@@ -476,7 +480,7 @@ std::vector<Instance> refine_and_verify(std::vector<Instance> instances, std::sp
         // A hypothesis that explains too little of the coverage asked for, even with the looser ICP
         // distance, will not make it: reject it before paying for ICP.
         if (verify.enabled) {
-            const NearCount start = near_count(instance.transform);
+            const NearCount start = near_placed(instance.transform);
             if (float(start.near) < verify.prefilter_coverage * verify.min_coverage * float(start.facing) ||
                 start.facing == 0)
                 continue;
