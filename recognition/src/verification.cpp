@@ -14,6 +14,7 @@
 #include <tbb/parallel_reduce.h>
 
 #include "mfpc/core/error.hpp"
+#include "mfpc/index/nearest_neighbors.hpp"
 #include "mfpc/kernels/uniform_sampling.hpp"
 
 namespace mfpc {
@@ -189,6 +190,93 @@ float nearest_depth_around(const SceneEvidence& scene, std::size_t pixel)
     return nearest;
 }
 
+// The facing model points that the model itself hides from the sensor at a pose (a mug's inside
+// behind its front wall). Each placed point stands for a disc of `radius` in its tangent plane (the
+// thinned model's spacing, so that the discs close the surface); a facing point is hidden when the
+// ray to it crosses another point's disc more than `margin` before reaching it. Near an edge of a
+// convex model a disc reaches past the edge over the face beside it, and the ray to a point on
+// that face crosses it up to about three radii early: the margin must be that, and only hollows
+// deeper than it count. The discs are bucketed by where they project, in coordinates x/z and y/z,
+// so that each point asks only the discs over it. No camera is needed: the sensor is the origin,
+// as for faces_camera.
+struct SelfOcclusion {
+    std::vector<Point> normals;  // placed
+    std::vector<std::uint32_t> first, discs;  // per cell, the discs over it: discs[first[c] .. first[c + 1])
+};
+void hidden_by_model(std::span<const Point> placed, std::span<const Point> model_normals, const Pose& pose,
+                     std::span<const std::uint8_t> facing, float radius, float margin, SelfOcclusion& work,
+                     std::vector<std::uint8_t>& hidden)
+{
+    const std::size_t n = placed.size();
+    hidden.assign(n, 0);
+    // Points closer to the sensor than a few radii are left out: their discs would cover the view.
+    const float nearest_allowed = 2.0f * radius;
+    float lowest_z = std::numeric_limits<float>::infinity();
+    float a_min = lowest_z, b_min = lowest_z, a_max = -lowest_z, b_max = -lowest_z;
+    work.normals.resize(n);
+    for (std::size_t i = 0; i < n; ++i) {
+        work.normals[i] = pose.linear() * model_normals[i];
+        const Point& p = placed[i];
+        if (!(p.z() > nearest_allowed) || !work.normals[i].allFinite()) continue;
+        lowest_z = std::min(lowest_z, p.z());
+        a_min = std::min(a_min, p.x() / p.z());
+        a_max = std::max(a_max, p.x() / p.z());
+        b_min = std::min(b_min, p.y() / p.z());
+        b_max = std::max(b_max, p.y() / p.z());
+    }
+    if (!std::isfinite(lowest_z) || !(radius > 0.0f)) return;
+    // Cells about a disc's projection across at the nearest point; coarser when that would make
+    // more cells than a few per point.
+    auto reach = [&](const Point& q) { return radius * (1.0f + std::abs(q.x() / q.z()) + std::abs(q.y() / q.z())) / (q.z() - radius); };
+    float cell = radius / lowest_z;
+    const float width = a_max - a_min, height = b_max - b_min;
+    const float most_cells = 4.0f * float(n) + 64.0f;
+    if ((width / cell + 1.0f) * (height / cell + 1.0f) > most_cells)
+        cell = std::max(width, height) / std::sqrt(most_cells) + std::numeric_limits<float>::min();
+    const float a0 = a_min - cell, b0 = b_min - cell;
+    const long columns = long((width + 2.0f * cell) / cell) + 2, rows = long((height + 2.0f * cell) / cell) + 2;
+    auto column = [&](float a) { return std::clamp(long((a - a0) / cell), 0L, columns - 1); };
+    auto row = [&](float b) { return std::clamp(long((b - b0) / cell), 0L, rows - 1); };
+    auto usable = [&](std::size_t i) { return placed[i].z() > nearest_allowed && work.normals[i].allFinite(); };
+    // Counting sort of the discs into the cells they may cover.
+    work.first.assign(std::size_t(columns * rows) + 1, 0);
+    for (int pass = 0; pass < 2; ++pass) {
+        if (pass == 1) {
+            for (std::size_t c = 1; c < work.first.size(); ++c) work.first[c] += work.first[c - 1];
+            work.discs.resize(work.first.back());
+        }
+        for (std::size_t i = n; i-- > 0;) {
+            if (!usable(i)) continue;
+            const Point& q = placed[i];
+            const float a = q.x() / q.z(), b = q.y() / q.z(), e = reach(q);
+            for (long y = row(b - e); y <= row(b + e); ++y)
+                for (long x = column(a - e); x <= column(a + e); ++x) {
+                    const std::size_t c = std::size_t(y * columns + x);
+                    if (pass == 0) ++work.first[c + 1];
+                    else work.discs[--work.first[c + 1]] = std::uint32_t(i);
+                }
+        }
+    }
+    // The second pass counted each cell's end back down to its start: cell c's discs now begin at
+    // first[c + 1] and end where cell c + 1's begin.
+    for (std::size_t i = 0; i < n; ++i) {
+        if (!facing[i] || !(placed[i].z() > nearest_allowed)) continue;
+        const Point& p = placed[i];
+        const std::size_t c = std::size_t(row(p.y() / p.z()) * columns + column(p.x() / p.z()));
+        const std::uint32_t end = c + 2 < work.first.size() ? work.first[c + 2] : std::uint32_t(work.discs.size());
+        for (std::uint32_t k = work.first[c + 1]; k < end && !hidden[i]; ++k) {
+            const std::uint32_t j = work.discs[k];
+            if (j == i) continue;
+            const Point& normal = work.normals[j];
+            const float across = normal.dot(p);
+            if (std::abs(across) < 1e-12f) continue;  // the ray runs along the disc
+            const float s = normal.dot(placed[j]) / across;
+            const Point hit = s * p;
+            hidden[i] = s > 0.0f && hit.z() < p.z() - margin && (hit - placed[j]).squaredNorm() <= radius * radius;
+        }
+    }
+}
+
 // Rim probes: where the model's surface would go on if the object were bigger. Each (thinned)
 // model point gets eight probes in its tangent plane, rim_distance away (VerifyParams says why
 // that far); a probe with a model point within 0.6 rim_distance lies on the model and is dropped,
@@ -320,6 +408,22 @@ SceneEvidence make_scene_evidence(const PointCloud& scene, const OrganizedNeighb
     return evidence;
 }
 
+std::vector<std::uint8_t> model_points_in_view(std::span<const Point> points, std::span<const Point> normals,
+                                               const Pose& pose, float min_facing_cos, float spacing)
+{
+    if (normals.size() != points.size())
+        throw Error("model_points_in_view", "the model has " + std::to_string(normals.size()) + " normals for " +
+                                                std::to_string(points.size()) + " points");
+    std::vector<Point> placed(points.size());
+    place(pose, points, placed);
+    std::vector<std::uint8_t> seen(points.size()), hidden;
+    for (std::size_t i = 0; i < points.size(); ++i) seen[i] = faces_camera(pose, placed[i], normals[i], min_facing_cos);
+    SelfOcclusion work;
+    hidden_by_model(placed, normals, pose, seen, spacing, 3.0f * spacing, work, hidden);
+    for (std::size_t i = 0; i < points.size(); ++i) seen[i] = seen[i] && !hidden[i];
+    return seen;
+}
+
 std::vector<Instance> refine_and_verify(std::vector<Instance> instances, std::span<const Point> model_points,
                                         std::span<const Point> model_normals, const SceneEvidence& scene,
                                         const RefineParams& refine, const VerifyParams& verify)
@@ -357,6 +461,10 @@ std::vector<Instance> refine_and_verify(std::vector<Instance> instances, std::sp
     std::vector<std::uint8_t> settled;  // per claim
     bool any_settled = false;
     Scratch scratch(points.size());
+    // Self-occlusion: each thinned point stands for a disc as wide as their spacing.
+    const float disc_radius = points.size() >= 2 ? float(mean_spacing(points)) : 0.0f;
+    SelfOcclusion occlusion;
+    std::vector<std::uint8_t> faces_sensor(points.size()), self_hidden;
     // The rim probes, made when a hypothesis first passes every other test (in a scene without
     // the object, none does).
     std::optional<std::vector<Probe>> probes;
@@ -400,13 +508,18 @@ std::vector<Instance> refine_and_verify(std::vector<Instance> instances, std::sp
         // it: no evidence for or against it) is visible: only those are looked up for fitness.
         if (refine.enabled) place(instance.transform, points, scratch.placed);  // ICP moved it
         const std::vector<Point>& at = scratch.placed;
+        for (std::size_t i = 0; i < points.size(); ++i)
+            faces_sensor[i] = faces_camera(instance.transform, at[i], normals[i], verify.min_facing_cos);
+        hidden_by_model(at, normals, instance.transform, faces_sensor, disc_radius, 3.0f * disc_radius, occlusion,
+                        self_hidden);
         std::size_t facing = 0, visible = 0, inliers = 0, projected = 0, violations = 0;
         Spread facing_spread, inlier_spread;
         for (std::size_t i = 0; i < points.size(); ++i) {
             const Point& p = at[i];
             bool hidden = false;
-            const bool faces = faces_camera(instance.transform, p, normals[i], verify.min_facing_cos);
-            const bool edge_on = normals[i].allFinite() && !faces &&
+            // What the sensor could see of the object were nothing else in front of it.
+            const bool faces = faces_sensor[i] && !self_hidden[i];
+            const bool edge_on = normals[i].allFinite() && !faces_sensor[i] &&
                                  !faces_camera(instance.transform, p, -normals[i], verify.min_facing_cos);
             if (const std::size_t pixel = pixel_of(scene, p); pixel != no_pixel && std::isfinite(scene.depth[pixel])) {
                 hidden = scene.depth[pixel] < p.z() - verify.free_space_margin;

@@ -9,10 +9,12 @@
 #include <tbb/global_control.h>
 
 #include "mfpc/core/camera.hpp"
+#include "mfpc/core/error.hpp"
 #include "mfpc/core/point_cloud.hpp"
 #include "mfpc/core/pose.hpp"
 #include "mfpc/index/neighbor_grid.hpp"
 #include "mfpc/recognition/verification.hpp"
+#include "hollow_cup.hpp"
 
 namespace mfpc {
 namespace {
@@ -270,6 +272,64 @@ TEST(RefineAndVerify, ASideSeenEdgeOnIsNoEvidenceAgainstTheTruePose)
     const PointCloud scene = scan(edge_on, camera, 80.0f);
     const NeighborGrid grid(scene.points, 0.005f);
     const std::vector<Instance> found = verify_unrefined(edge_on, box_model(), make_scene_evidence(scene, grid, camera));
+    ASSERT_EQ(found.size(), 1u);
+    EXPECT_GT(found[0].coverage, 0.9f);
+    EXPECT_GT(found[0].fitness, 0.9f);
+}
+
+// What the sensor sees of a model alone: a hollow cup seen from the side hides the inside of its
+// far wall, which faces the sensor, behind its front wall; a convex box hides nothing it turns to
+// the sensor, edges included, at any turn.
+TEST(ModelPointsInView, AHollowModelHidesItsInsideAndAConvexOneNothing)
+{
+    constexpr float facing_cos = 0.2588f;
+    const test::HollowCup cup = test::hollow_cup();
+    const Pose ahead = pose_at({0.0f, 0.0f, 0.8f});
+    const std::vector<std::uint8_t> seen = model_points_in_view(cup.points, cup.normals, ahead, facing_cos, 0.004f);
+    std::size_t far_inside = 0, near_outside = 0;
+    for (std::size_t i = 0; i < cup.points.size(); ++i) {
+        const Point& p = cup.points[i];
+        const float radius = std::hypot(p.x(), p.z());
+        if (std::abs(radius - 0.036f) < 1e-4f && p.z() > 0.01f) {
+            ++far_inside;
+            EXPECT_FALSE(seen[i]) << "inside of the far wall at " << p.transpose();
+        }
+        if (std::abs(radius - 0.04f) < 1e-4f && p.z() < -0.02f) {
+            ++near_outside;
+            EXPECT_TRUE(seen[i]) << "outside of the front wall at " << p.transpose();
+        }
+    }
+    EXPECT_GT(far_inside, 300u);
+    EXPECT_GT(near_outside, 300u);
+
+    const Box box = box_model();
+    for (const float degrees : {0.0f, 20.0f, 45.0f, 70.0f}) {
+        const Pose pose = pose_at({0.1f, -0.05f, 0.7f}, degrees);
+        const std::vector<std::uint8_t> box_seen = model_points_in_view(box.points, box.normals, pose, facing_cos, 0.004f);
+        for (std::size_t i = 0; i < box.points.size(); ++i) {
+            const Point p = pose * box.points[i];
+            const bool faces = (pose.linear() * box.normals[i]).dot(-p) > facing_cos * p.norm();
+            EXPECT_EQ(bool(box_seen[i]), faces) << degrees << " degrees, " << box.points[i].transpose();
+        }
+    }
+    EXPECT_THROW(model_points_in_view(box.points, {}, ahead, facing_cos, 0.004f), Error);
+}
+
+// The cup at its true pose, the scene being what the sensor sees of it: the inside of the far
+// wall, which faces the sensor behind the front wall, is no part of what the scene must explain.
+// Counted, it left the true pose with about half its facing points unexplained.
+TEST(RefineAndVerify, AHollowObjectIsNotRefusedForWhatItsOwnWallHides)
+{
+    const test::HollowCup cup = test::hollow_cup();
+    const Pose truth = pose_at({0.05f, 0.02f, 0.8f}, 30.0f);
+    const std::vector<std::uint8_t> seen = model_points_in_view(cup.points, cup.normals, truth, 0.2588f, 0.004f);
+    PointCloud scene;
+    for (std::size_t i = 0; i < cup.points.size(); ++i)
+        if (seen[i]) scene.points.push_back(truth * cup.points[i]);
+    scene.width = std::uint32_t(scene.points.size());
+    const NeighborGrid grid(scene.points, 0.005f);
+    const std::vector<Instance> found = refine_and_verify({hypothesis(truth, 10.0f)}, cup.points, cup.normals,
+                                                          make_scene_evidence(scene, grid, std::nullopt), {}, {});
     ASSERT_EQ(found.size(), 1u);
     EXPECT_GT(found[0].coverage, 0.9f);
     EXPECT_GT(found[0].fitness, 0.9f);

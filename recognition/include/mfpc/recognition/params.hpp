@@ -85,7 +85,10 @@ struct VerifyParams {
     bool enabled = true;                 ///< Whether the limits below apply.
     float inlier_distance = 0.005f;      ///< A model point fits when a scene point is this close.
     float min_inlier_fraction = 0.4f;    ///< Of the model points the sensor could see (facing it, not hidden).
-    float min_coverage = 0.6f;           ///< Inliers / model points facing the camera: how much of that side the scene explains.
+    /// Inliers over the model points facing the sensor that the model itself does not hide (see
+    /// model_points_in_view), whether or not the scene hides them: how much of that side the scene
+    /// explains.
+    float min_coverage = 0.6f;
     /// A model point faces the sensor when its surface is turned less than 75 degrees from the ray
     /// (this is cos 75°): a depth sensor gets little or no return from a more oblique surface (the
     /// synthetic scanner: none beyond 80°). Where no return came back, a carton with one side nearly

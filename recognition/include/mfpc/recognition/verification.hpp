@@ -42,15 +42,35 @@ SceneEvidence make_scene_evidence(const PointCloud& scene, const NeighborGrid& g
 /// @throws mfpc::Error when `organized` is not over the scene's points.
 SceneEvidence make_scene_evidence(const PointCloud& scene, const OrganizedNeighbors& organized);
 
+/// @brief The model points that a sensor at the origin would see with the model placed at `pose`,
+/// were nothing else in front of it.
+///
+/// A point is seen when its surface is turned to the sensor (less than acos(min_facing_cos) from
+/// the ray) and the model does not hide it itself (a mug's inside behind its front wall): each
+/// point stands for a disc `spacing` wide in its tangent plane, and a point is hidden when the ray
+/// to it crosses another's disc more than three spacings before reaching it (about the most by
+/// which a disc at an edge of a convex model reaches over the face beside it).
+/// @param points The model's points (model frame), sampled about `spacing` apart.
+/// @param normals One per point; a point without a finite normal is not seen and hides nothing.
+/// @param pose Where the model is (camera frame).
+/// @param min_facing_cos The cosine of the most a seen surface may be turned from the ray.
+/// @param spacing The points' sampling spacing (metres).
+/// @return Per point, 1 where it is seen.
+/// @throws mfpc::Error when the normals are not one per point.
+std::vector<std::uint8_t> model_points_in_view(std::span<const Point> points, std::span<const Point> normals,
+                                               const Pose& pose, float min_facing_cos, float spacing);
+
 /// @brief Refines each instance by ICP, then keeps those the scene supports.
 ///
 /// ICP (point to point, Umeyama per iteration) of each instance's model onto the scene, starting
 /// from its pose; then fitness: the fraction of the model points the sensor could have seen (normal
 /// within acos(VerifyParams::min_facing_cos) of the ray to the origin, not hidden behind a nearer
-/// observed surface) that have a scene point within inlier_distance; the coverage: inliers over all
-/// the model points facing the sensor, hidden or not (how much of the side of the model turned to
-/// the sensor the scene explains: for a model sampled all around an object, its back can never be
-/// seen, so it does not count, nor can a side seen nearly edge on); the thickness ratio (the
+/// observed surface, not hidden by the model itself) that have a scene point within
+/// inlier_distance; the coverage: inliers over the model points facing the sensor that the model
+/// does not hide itself (model_points_in_view), whether the scene hides them or not (how much of
+/// the side of the model turned to the sensor the scene explains: for a model sampled all around an
+/// object, its back can never be seen, so it does not count, nor can a side seen nearly edge on,
+/// nor a mug's inside behind its front wall); the thickness ratio (the
 /// fitting points' spread off their best plane over the facing side's: a model face flush on a
 /// table is no evidence of the object); the free-space violation: the fraction of all model points
 /// projecting onto an observed pixel whose surface, and that of every pixel around it, lies more
