@@ -257,6 +257,7 @@ void add(DatasetTotals& totals, const SceneOutcome& scene, float min_visible)
     }
     const Evaluation& e = scene.evaluation;
     totals.instances_true += e.instances_true;
+    totals.instances_true_by_surface += e.instances_true_by_surface;
     totals.instances_false += e.instances_false;
     totals.instances_missed += e.instances_missed;
     if (scene.negative) totals.false_on_negatives += e.instances_false;
@@ -306,6 +307,7 @@ ordered_json totals_json(const DatasetTotals& t)
     return {{"scenes", t.scenes},
             {"failed", t.failed},
             {"instances_true", t.instances_true},
+            {"instances_true_by_surface", t.instances_true_by_surface},
             {"instances_false", t.instances_false},
             {"instances_missed", t.instances_missed},
             {"false_on_negatives", t.false_on_negatives},
@@ -483,6 +485,7 @@ std::string to_json(const DatasetReport& report)
         } else {
             item.update({{"instances", s.instances},
                          {"instances_true", e.instances_true},
+                         {"instances_true_by_surface", e.instances_true_by_surface},
                          {"instances_false", e.instances_false},
                          {"instances_missed", e.instances_missed},
                          {"truth", truth},
@@ -530,7 +533,9 @@ std::string to_json(const DatasetReport& report)
         {"tolerances",
          {{"correspondence_m", shortest_double(tolerances.correspondence_tolerance)},
           {"instance_m", shortest_double(tolerances.instance_translation)},
-          {"instance_deg", shortest_double(tolerances.instance_angle_deg)}}},
+          {"instance_deg", shortest_double(tolerances.instance_angle_deg)},
+          {"surface_m", shortest_double(tolerances.surface_tolerance)},
+          {"surface_agreement", shortest_double(tolerances.surface_agreement)}}},
         {"models", models},
         {"scenes", scenes},
         {"totals", tallies}};

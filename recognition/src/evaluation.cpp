@@ -5,7 +5,9 @@
 #include <set>
 #include <utility>
 
+#include "mfpc/index/nearest_neighbors.hpp"
 #include "mfpc/index/neighbor_grid.hpp"
+#include "mfpc/recognition/verification.hpp"
 
 namespace mfpc {
 
@@ -60,6 +62,36 @@ Evaluation evaluate(const RecognitionResult& result, const Model& model, const G
     // Instances: the object's position is the model centroid carried by the transform.
     const Point centroid = model_centroid(model);
     std::vector<std::uint8_t> claimed(truth.instances.size(), 0);
+    // The visible-surface test, on the model's own points: thinned to a grid, a wall thinner than a
+    // cell keeps one side or the other in patches. Its spacing is found when first asked.
+    float spacing = -1.0f;
+    auto seen_at = [&](const Pose& pose) {
+        constexpr float facing_cos = 0.2588f;  // cos 75°: VerifyParams::min_facing_cos says why
+        const std::vector<std::uint8_t> seen = model_points_in_view(model.points, model.normals, pose, facing_cos, spacing);
+        std::vector<Point> points;
+        for (std::size_t i = 0; i < model.points.size(); ++i)
+            if (seen[i]) points.push_back(pose * model.points[i]);
+        return points;
+    };
+    auto agreement = [&](std::span<const Point> from, std::span<const Point> to) {
+        const NeighborGrid grid(to, std::max(params.surface_tolerance, 1e-3f));
+        std::size_t near = 0;
+        for (const Point& p : from) {
+            std::uint32_t index = 0;
+            float d2 = 0.0f;
+            near += grid.nearest(p, params.surface_tolerance, index, d2);
+        }
+        return double(near) / double(from.size());
+    };
+    auto same_surface = [&](const Pose& found, const Pose& true_pose) {
+        if (params.surface_agreement > 1.0f || model.points.size() < 2 || model.points.size() != model.normals.size())
+            return false;
+        if (spacing < 0.0f) spacing = float(mean_spacing(model.points));
+        const std::vector<Point> at_found = seen_at(found), at_truth = seen_at(true_pose);
+        if (at_found.empty() || at_truth.empty()) return false;
+        return agreement(at_found, at_truth) >= params.surface_agreement &&
+               agreement(at_truth, at_found) >= params.surface_agreement;
+    };
     for (const auto& instance : result.instances) {
         int match = -1;
         float best = params.instance_translation;
@@ -87,18 +119,22 @@ Evaluation evaluate(const RecognitionResult& result, const Model& model, const G
         }
         out.position_error.push_back(nearest);
         out.rotation_error_deg.push_back(nearest_angle);
+        bool by_surface = false;
         for (std::size_t t = 0; t < truth.instances.size(); ++t) {
             if (claimed[t]) continue;
             const float distance = distance_to(t);
-            if (distance <= best && angle_to(t) <= params.instance_angle_deg) {
-                best = distance;
-                match = int(t);
-            }
+            if (distance > best) continue;
+            const bool turned = angle_to(t) > params.instance_angle_deg;
+            if (turned && !same_surface(instance.transform, truth.instances[t].transform)) continue;
+            best = distance;
+            match = int(t);
+            by_surface = turned;
         }
         out.instance_match.push_back(match);
         if (match >= 0) {
             claimed[std::size_t(match)] = 1;
             ++out.instances_true;
+            out.instances_true_by_surface += by_surface;
         } else {
             ++out.instances_false;
         }

@@ -101,6 +101,7 @@ std::string to_json(const RecognitionReport& report)
     if (evaluation) {
         json["evaluation"] = {{"ground_truth", report.ground_truth_file},
                               {"instances_true", evaluation->instances_true},
+                              {"instances_true_by_surface", evaluation->instances_true_by_surface},
                               {"instances_false", evaluation->instances_false},
                               {"instances_missed", evaluation->instances_missed},
                               {"correct_correspondences", evaluation->correct_correspondences},
@@ -110,7 +111,9 @@ std::string to_json(const RecognitionReport& report)
                               {"tolerances",
                                {{"correspondence_m", report.evaluation_params.correspondence_tolerance},
                                 {"instance_m", report.evaluation_params.instance_translation},
-                                {"instance_deg", report.evaluation_params.instance_angle_deg}}}};
+                                {"instance_deg", report.evaluation_params.instance_angle_deg},
+                                {"surface_m", report.evaluation_params.surface_tolerance},
+                                {"surface_agreement", report.evaluation_params.surface_agreement}}}};
     }
     return detail::json_text(json);
 }

@@ -4,6 +4,7 @@
 #include <gtest/gtest.h>
 
 #include "mfpc/recognition/evaluation.hpp"
+#include "hollow_cup.hpp"
 
 namespace mfpc {
 namespace {
@@ -93,6 +94,43 @@ TEST(Evaluation, CountsPrecisionAndSensitivityByHand)
     EXPECT_EQ(fewer.correct_correspondences, 2u);
     EXPECT_DOUBLE_EQ(fewer.correspondence_precision, 2.0 / 4.0);
     EXPECT_DOUBLE_EQ(fewer.correspondence_sensitivity, 2.0 / 3.0);
+}
+
+// A cup turned about its body is as right as its truth when the sensor would see the same surface:
+// its handle hidden behind it at both poses. When the truth shows the handle and the found pose hides it,
+// the pose is wrong, whatever the body says.
+TEST(Evaluation, ATurnTheSensorCannotSeeIsTrueAndOneItCanIsFalse)
+{
+    const test::HollowCup cup = test::hollow_cup();
+    Model model;
+    model.points = cup.points;
+    model.normals = cup.normals;
+    auto about_axis = [](float degrees) {
+        return Pose(Eigen::AngleAxisf(degrees * float(std::numbers::pi) / 180.0f, Eigen::Vector3f::UnitY()));
+    };
+    const Pose ahead(Eigen::Translation3f(0.0f, 0.0f, 0.8f));
+    GroundTruth truth;
+    truth.instances.emplace_back();
+    RecognitionResult result;
+    result.instances.emplace_back();
+
+    // The handle (model +x) pointing away from the sensor, found turned 20 degrees about the body.
+    truth.instances[0].transform = ahead * about_axis(-90.0f);
+    result.instances[0].transform = truth.instances[0].transform * about_axis(20.0f);
+    const Evaluation hidden = evaluate(result, model, truth);
+    EXPECT_EQ(hidden.instances_true, 1u);
+    EXPECT_EQ(hidden.instances_true_by_surface, 1u);
+    EXPECT_NEAR(hidden.rotation_error_deg[0], 20.0f, 1e-2f);
+    EvaluationParams strict;
+    strict.surface_agreement = 2.0f;  // off
+    EXPECT_EQ(evaluate(result, model, truth, strict).instances_false, 1u);
+
+    // The handle to the side, in view; found with it turned away.
+    truth.instances[0].transform = ahead;
+    result.instances[0].transform = ahead * about_axis(-90.0f);
+    const Evaluation shown = evaluate(result, model, truth);
+    EXPECT_EQ(shown.instances_true, 0u);
+    EXPECT_EQ(shown.instances_false, 1u);
 }
 
 }  // namespace

@@ -144,6 +144,8 @@ struct DatasetTotals {
     /// @var instances_missed
     /// Ground-truth instances no found instance matched (all those of a failed scene).
     std::size_t instances_true = 0, instances_false = 0, instances_missed = 0;
+    /// Of instances_true, those matched by their visible surface alone (Evaluation::instances_true_by_surface).
+    std::size_t instances_true_by_surface = 0;
     std::size_t truth = 0;              ///< Ground-truth instances.
     /// @var visible
     /// Ground-truth instances seen at least min_visible_fraction (or whose visibility is not given).

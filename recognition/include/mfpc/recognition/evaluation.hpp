@@ -16,6 +16,15 @@ struct EvaluationParams {
     float correspondence_tolerance = 0.01f;  ///< Scene keypoint within this of the true model keypoint (m).
     float instance_translation = 0.02f;      ///< An instance is correct within 2 cm ...
     float instance_angle_deg = 10.0f;        ///< ... and 10 degrees of an unclaimed true instance.
+    /// Beyond instance_angle_deg, a found instance within instance_translation still matches when
+    /// the sensor would see the same surface at both poses (after the visible surface discrepancy
+    /// of the BOP benchmark): a pose is only as determined as what can be seen of the object (a mug
+    /// with its handle behind it, turned about its body). The model points seen at each pose
+    /// (model_points_in_view: facing the sensor within 75 degrees, not hidden by the model itself)
+    /// must lie within surface_tolerance (metres) of a point seen at the other pose, for at least
+    /// surface_agreement of them each way. A surface_agreement above 1 turns the test off.
+    float surface_tolerance = 0.01f;
+    float surface_agreement = 0.95f;         ///< See surface_tolerance.
 };
 
 /// @brief How a recognition result compares with the ground truth.
@@ -30,6 +39,9 @@ struct Evaluation {
     /// Distinct pairs found correct / possible (Eq. 11); 0 when none is possible.
     double correspondence_sensitivity = 0;
     std::vector<int> instance_match;          ///< Per found instance: the true instance it matches, or -1.
+    /// Of instances_true, those matched by their visible surface alone (turned more than
+    /// EvaluationParams::instance_angle_deg from the truth).
+    std::size_t instances_true_by_surface = 0;
     /// Per found instance: model centroid offset from the nearest true pose (m).
     std::vector<float> position_error;
     std::vector<float> rotation_error_deg;    ///< ... and rotation difference to it (degrees).
@@ -41,7 +53,8 @@ struct Evaluation {
 /// model keypoint mapped by some true instance's transform; found instances are matched greedily
 /// (in result order) to the nearest unclaimed true instance within the translation and angle
 /// limits. For a symmetric object (the ground truth's "symmetry"), each of its equivalent
-/// transforms counts as the true one.
+/// transforms counts as the true one. An instance turned further but at the right place matches
+/// when the sensor would see the same surface of it (EvaluationParams::surface_tolerance).
 /// @param result The recognition result: its correspondences and instances.
 /// @param model The model recognised, whose keypoints the correspondences number.
 /// @param truth The scene's ground truth.
