@@ -226,18 +226,36 @@ void hidden_by_model(std::span<const Point> placed, std::span<const Point> model
     }
     if (!std::isfinite(lowest_z) || !(radius > 0.0f)) return;
     // Cells about a disc's projection across at the nearest point; coarser when that would make
-    // more cells than a few per point.
-    auto reach = [&](const Point& q) { return radius * (1.0f + std::abs(q.x() / q.z()) + std::abs(q.y() / q.z())) / (q.z() - radius); };
-    float cell = radius / lowest_z;
+    // more cells than a few per point, or the discs cover too many (a model far off the axis, where
+    // x/z changes fast): coarser cells only cost more discs asked per point.
+    auto reach = [&](const Point& q) {
+        return radius * (1.0f + std::abs(q.x() / q.z()) + std::abs(q.y() / q.z())) / (q.z() - radius);
+    };
+    auto usable = [&](std::size_t i) { return placed[i].z() > nearest_allowed && work.normals[i].allFinite(); };
     const float width = a_max - a_min, height = b_max - b_min;
     const float most_cells = 4.0f * float(n) + 64.0f;
+    float cell = radius / lowest_z;
     if ((width / cell + 1.0f) * (height / cell + 1.0f) > most_cells)
         cell = std::max(width, height) / std::sqrt(most_cells) + std::numeric_limits<float>::min();
-    const float a0 = a_min - cell, b0 = b_min - cell;
-    const long columns = long((width + 2.0f * cell) / cell) + 2, rows = long((height + 2.0f * cell) / cell) + 2;
+    long columns = 0, rows = 0;
+    float a0 = 0.0f, b0 = 0.0f;
     auto column = [&](float a) { return std::clamp(long((a - a0) / cell), 0L, columns - 1); };
     auto row = [&](float b) { return std::clamp(long((b - b0) / cell), 0L, rows - 1); };
-    auto usable = [&](std::size_t i) { return placed[i].z() > nearest_allowed && work.normals[i].allFinite(); };
+    for (;;) {
+        a0 = a_min - cell;
+        b0 = b_min - cell;
+        columns = long((width + 2.0f * cell) / cell) + 2;
+        rows = long((height + 2.0f * cell) / cell) + 2;
+        double entries = 0.0;
+        for (std::size_t i = 0; i < n; ++i)
+            if (usable(i)) {
+                const Point& q = placed[i];
+                const float a = q.x() / q.z(), b = q.y() / q.z(), e = reach(q);
+                entries += double(column(a + e) - column(a - e) + 1) * double(row(b + e) - row(b - e) + 1);
+            }
+        if (entries <= 64.0 * double(n) + 1024.0) break;
+        cell *= 2.0f;
+    }
     // Counting sort of the discs into the cells they may cover.
     work.first.assign(std::size_t(columns * rows) + 1, 0);
     for (int pass = 0; pass < 2; ++pass) {

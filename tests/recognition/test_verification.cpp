@@ -302,14 +302,15 @@ TEST(ModelPointsInView, AHollowModelHidesItsInsideAndAConvexOneNothing)
     EXPECT_GT(far_inside, 300u);
     EXPECT_GT(near_outside, 300u);
 
+    // Far off the axis too (x/z about 80), where a disc's projection spans many cells.
     const Box box = box_model();
-    for (const float degrees : {0.0f, 20.0f, 45.0f, 70.0f}) {
-        const Pose pose = pose_at({0.1f, -0.05f, 0.7f}, degrees);
+    for (const auto& [x, degrees] : {std::pair{0.1f, 0.0f}, {0.1f, 20.0f}, {0.1f, 45.0f}, {0.1f, 70.0f}, {40.0f, 30.0f}}) {
+        const Pose pose = pose_at({x, -0.05f, 0.5f}, degrees);
         const std::vector<std::uint8_t> box_seen = model_points_in_view(box.points, box.normals, pose, facing_cos, 0.004f);
         for (std::size_t i = 0; i < box.points.size(); ++i) {
             const Point p = pose * box.points[i];
             const bool faces = (pose.linear() * box.normals[i]).dot(-p) > facing_cos * p.norm();
-            EXPECT_EQ(bool(box_seen[i]), faces) << degrees << " degrees, " << box.points[i].transpose();
+            EXPECT_EQ(bool(box_seen[i]), faces) << x << " m, " << degrees << " degrees, " << box.points[i].transpose();
         }
     }
     EXPECT_THROW(model_points_in_view(box.points, {}, ahead, facing_cos, 0.004f), Error);
