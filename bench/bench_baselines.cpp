@@ -3,7 +3,7 @@
 // registration repeated per instance (open3d_baseline.hpp), on the shared real Kinect scenes, all
 // at 2 threads, in this process. Printed per scene and per tool: the instances found, false and
 // missed (mfpc::evaluate's rule for all three: within 2 cm and 10 degrees of an unclaimed true
-// instance; in a negative scene every instance is false), the median scene time over the
+// instance, or 2 cm and the same visible surface; in a negative scene every instance is false), the median scene time over the
 // repetitions, and Open3D / ours and PCL / ours of those medians. The model side (describing the
 // model) is timed apart, with the same repetitions.
 //
@@ -308,8 +308,8 @@ int run(int repetitions)
                 "Open3D: 0.16 voxel %.3f, FPFH + RANSAC (%d iterations, %.3f) + point-to-plane ICP (%.4f m), repeated\n"
                 "     per instance while ICP fitness >= %.2f (at most %d), removing scene points within %.3f m of each\n"
                 "     placed model; time: open3d_recognize's total (the copy into Open3D's cloud apart)\n"
-                "scoring: mfpc::evaluate, within 2 cm and 10 deg of an unclaimed true instance; counts are\n"
-                "found/false/missed, one per repetition where they differ\n",
+                "scoring: mfpc::evaluate, within 2 cm and 10 deg (or the same visible surface) of an unclaimed\n"
+                "true instance; counts are found/false/missed, one per repetition where they differ\n",
                 PclParams{}.normal_k, double(PclParams{}.model_sampling), double(PclParams{}.scene_sampling),
                 double(PclParams{}.shot_radius), double(PclParams{}.lrf_radius), double(PclParams{}.hough_bin),
                 double(PclParams{}.hough_threshold), o3d.voxel, o3d.ransac_iterations, o3d.ransac_confidence,
