@@ -479,7 +479,7 @@ std::vector<Instance> refine_and_verify(std::vector<Instance> instances, std::sp
     std::vector<std::uint8_t> settled;  // per claim
     bool any_settled = false;
     Scratch scratch(points.size());
-    // Self-occlusion: each thinned point stands for a disc as wide as their spacing.
+    // Self-occlusion: each thinned point stands for a disc whose radius is their mean spacing.
     const float disc_radius = points.size() >= 2 ? float(mean_spacing(points)) : 0.0f;
     SelfOcclusion occlusion;
     std::vector<std::uint8_t> faces_sensor(points.size()), self_hidden;

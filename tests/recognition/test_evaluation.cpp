@@ -96,9 +96,9 @@ TEST(Evaluation, CountsPrecisionAndSensitivityByHand)
     EXPECT_DOUBLE_EQ(fewer.correspondence_sensitivity, 2.0 / 3.0);
 }
 
-// A cup turned about its body is as right as its truth when the sensor would see the same surface:
-// its handle hidden behind it at both poses. When the truth shows the handle and the found pose hides it,
-// the pose is wrong, whatever the body says.
+// A cup turned about its body is as right as its truth when the sensor would see the same
+// surface: its handle hidden behind it at both poses. When the truth shows the handle and the
+// found pose hides it, the pose is wrong, whatever the body says.
 TEST(Evaluation, ATurnTheSensorCannotSeeIsTrueAndOneItCanIsFalse)
 {
     const test::HollowCup cup = test::hollow_cup();

@@ -47,8 +47,8 @@ SceneEvidence make_scene_evidence(const PointCloud& scene, const OrganizedNeighb
 ///
 /// A point is seen when its surface is turned to the sensor (less than acos(min_facing_cos) from
 /// the ray) and the model does not hide it itself (a mug's inside behind its front wall): each
-/// point stands for a disc `spacing` wide in its tangent plane, and a point is hidden when the ray
-/// to it crosses another's disc more than three spacings before reaching it (about the most by
+/// point stands for a disc of radius `spacing` in its tangent plane, and a point is hidden when the
+/// ray to it crosses another's disc more than three spacings before reaching it (about the most by
 /// which a disc at an edge of a convex model reaches over the face beside it).
 /// @param points The model's points (model frame), sampled about `spacing` apart.
 /// @param normals One per point; a point without a finite normal is not seen and hides nothing.
