@@ -201,7 +201,11 @@ float nearest_depth_around(const SceneEvidence& scene, std::size_t pixel)
 // as for faces_camera.
 struct SelfOcclusion {
     std::vector<Point> normals;  // placed
-    std::vector<std::uint32_t> first, discs;  // per cell, the discs over it: discs[first[c] .. first[c + 1])
+    struct Span {
+        long x0, x1, y0, y1;  // the cells a disc may cover, inclusive
+    };
+    std::vector<Span> spans;  // per point; unused for the points left out
+    std::vector<std::uint32_t> first, cursor, discs;  // cell c's discs: discs[first[c] .. first[c + 1])
 };
 void hidden_by_model(std::span<const Point> placed, std::span<const Point> model_normals, const Pose& pose,
                      std::span<const std::uint8_t> facing, float radius, float margin, SelfOcclusion& work,
@@ -209,29 +213,27 @@ void hidden_by_model(std::span<const Point> placed, std::span<const Point> model
 {
     const std::size_t n = placed.size();
     hidden.assign(n, 0);
+    if (!(radius > 0.0f)) return;
     // Points closer to the sensor than a few radii are left out: their discs would cover the view.
     const float nearest_allowed = 2.0f * radius;
+    work.normals.resize(n);
+    for (std::size_t i = 0; i < n; ++i) work.normals[i] = pose.linear() * model_normals[i];
+    auto usable = [&](std::size_t i) { return placed[i].z() > nearest_allowed && work.normals[i].allFinite(); };
     float lowest_z = std::numeric_limits<float>::infinity();
     float a_min = lowest_z, b_min = lowest_z, a_max = -lowest_z, b_max = -lowest_z;
-    work.normals.resize(n);
     for (std::size_t i = 0; i < n; ++i) {
-        work.normals[i] = pose.linear() * model_normals[i];
+        if (!usable(i)) continue;
         const Point& p = placed[i];
-        if (!(p.z() > nearest_allowed) || !work.normals[i].allFinite()) continue;
         lowest_z = std::min(lowest_z, p.z());
         a_min = std::min(a_min, p.x() / p.z());
         a_max = std::max(a_max, p.x() / p.z());
         b_min = std::min(b_min, p.y() / p.z());
         b_max = std::max(b_max, p.y() / p.z());
     }
-    if (!std::isfinite(lowest_z) || !(radius > 0.0f)) return;
+    if (!std::isfinite(lowest_z)) return;
     // Cells about a disc's projection across at the nearest point; coarser when that would make
     // more cells than a few per point, or the discs cover too many (a model far off the axis, where
     // x/z changes fast): coarser cells only cost more discs asked per point.
-    auto reach = [&](const Point& q) {
-        return radius * (1.0f + std::abs(q.x() / q.z()) + std::abs(q.y() / q.z())) / (q.z() - radius);
-    };
-    auto usable = [&](std::size_t i) { return placed[i].z() > nearest_allowed && work.normals[i].allFinite(); };
     const float width = a_max - a_min, height = b_max - b_min;
     const float most_cells = 4.0f * float(n) + 64.0f;
     float cell = radius / lowest_z;
@@ -241,48 +243,44 @@ void hidden_by_model(std::span<const Point> placed, std::span<const Point> model
     float a0 = 0.0f, b0 = 0.0f;
     auto column = [&](float a) { return std::clamp(long((a - a0) / cell), 0L, columns - 1); };
     auto row = [&](float b) { return std::clamp(long((b - b0) / cell), 0L, rows - 1); };
+    work.spans.resize(n);
     for (;;) {
         a0 = a_min - cell;
         b0 = b_min - cell;
         columns = long((width + 2.0f * cell) / cell) + 2;
         rows = long((height + 2.0f * cell) / cell) + 2;
         double entries = 0.0;
-        for (std::size_t i = 0; i < n; ++i)
-            if (usable(i)) {
-                const Point& q = placed[i];
-                const float a = q.x() / q.z(), b = q.y() / q.z(), e = reach(q);
-                entries += double(column(a + e) - column(a - e) + 1) * double(row(b + e) - row(b - e) + 1);
-            }
+        for (std::size_t i = 0; i < n; ++i) {
+            if (!usable(i)) continue;
+            const Point& q = placed[i];
+            const float a = q.x() / q.z(), b = q.y() / q.z();
+            const float e = radius * (1.0f + std::abs(a) + std::abs(b)) / (q.z() - radius);
+            const SelfOcclusion::Span span{column(a - e), column(a + e), row(b - e), row(b + e)};
+            work.spans[i] = span;
+            entries += double(span.x1 - span.x0 + 1) * double(span.y1 - span.y0 + 1);
+        }
         if (entries <= 64.0 * double(n) + 1024.0) break;
         cell *= 2.0f;
     }
     // Counting sort of the discs into the cells they may cover.
     work.first.assign(std::size_t(columns * rows) + 1, 0);
-    for (int pass = 0; pass < 2; ++pass) {
-        if (pass == 1) {
-            for (std::size_t c = 1; c < work.first.size(); ++c) work.first[c] += work.first[c - 1];
-            work.discs.resize(work.first.back());
-        }
-        for (std::size_t i = n; i-- > 0;) {
-            if (!usable(i)) continue;
-            const Point& q = placed[i];
-            const float a = q.x() / q.z(), b = q.y() / q.z(), e = reach(q);
-            for (long y = row(b - e); y <= row(b + e); ++y)
-                for (long x = column(a - e); x <= column(a + e); ++x) {
-                    const std::size_t c = std::size_t(y * columns + x);
-                    if (pass == 0) ++work.first[c + 1];
-                    else work.discs[--work.first[c + 1]] = std::uint32_t(i);
-                }
-        }
-    }
-    // The second pass counted each cell's end back down to its start: cell c's discs now begin at
-    // first[c + 1] and end where cell c + 1's begin.
+    for (std::size_t i = 0; i < n; ++i)
+        if (usable(i))
+            for (long y = work.spans[i].y0; y <= work.spans[i].y1; ++y)
+                for (long x = work.spans[i].x0; x <= work.spans[i].x1; ++x) ++work.first[std::size_t(y * columns + x) + 1];
+    for (std::size_t c = 1; c < work.first.size(); ++c) work.first[c] += work.first[c - 1];
+    work.cursor.assign(work.first.begin(), work.first.end() - 1);
+    work.discs.resize(work.first.back());
+    for (std::size_t i = 0; i < n; ++i)
+        if (usable(i))
+            for (long y = work.spans[i].y0; y <= work.spans[i].y1; ++y)
+                for (long x = work.spans[i].x0; x <= work.spans[i].x1; ++x)
+                    work.discs[work.cursor[std::size_t(y * columns + x)]++] = std::uint32_t(i);
     for (std::size_t i = 0; i < n; ++i) {
-        if (!facing[i] || !(placed[i].z() > nearest_allowed)) continue;
+        if (!facing[i] || !usable(i)) continue;
         const Point& p = placed[i];
         const std::size_t c = std::size_t(row(p.y() / p.z()) * columns + column(p.x() / p.z()));
-        const std::uint32_t end = c + 2 < work.first.size() ? work.first[c + 2] : std::uint32_t(work.discs.size());
-        for (std::uint32_t k = work.first[c + 1]; k < end && !hidden[i]; ++k) {
+        for (std::uint32_t k = work.first[c]; k < work.first[c + 1] && !hidden[i]; ++k) {
             const std::uint32_t j = work.discs[k];
             if (j == i) continue;
             const Point& normal = work.normals[j];
@@ -480,7 +478,7 @@ std::vector<Instance> refine_and_verify(std::vector<Instance> instances, std::sp
     bool any_settled = false;
     Scratch scratch(points.size());
     // Self-occlusion: each thinned point stands for a disc whose radius is their mean spacing.
-    const float disc_radius = points.size() >= 2 ? float(mean_spacing(points)) : 0.0f;
+    const float disc_radius = verify.enabled && points.size() >= 2 ? float(mean_spacing(points)) : 0.0f;
     SelfOcclusion occlusion;
     std::vector<std::uint8_t> faces_sensor(points.size()), self_hidden;
     // The rim probes, made when a hypothesis first passes every other test (in a scene without
