@@ -63,7 +63,9 @@ std::vector<std::uint8_t> model_points_in_view(std::span<const Point> points, st
 /// @brief Refines each instance by ICP, then keeps those the scene supports.
 ///
 /// ICP (point to point, Umeyama per iteration) of each instance's model onto the scene, starting
-/// from its pose; then fitness: the fraction of the model points the sensor could have seen (normal
+/// from its pose, pairing only the model points the sensor would see (facing it, not hidden by the
+/// model itself: paired, the hidden ones pull the pose toward the sensor); then fitness: the
+/// fraction of the model points the sensor could have seen (normal
 /// within acos(VerifyParams::min_facing_cos) of the ray to the origin, not hidden behind a nearer
 /// observed surface, not hidden by the model itself) that have a scene point within
 /// inlier_distance; the coverage: inliers over the model points facing the sensor that the model
