@@ -181,6 +181,7 @@ void check_recognition_params(const RecognitionParams& p, const std::string& sou
         throw Error(source + ": verify.min_rim_probes",
                     "must lie in 0..1000000, got " + std::to_string(p.verify.min_rim_probes));
     check_fraction(p.verify.settled_fitness, source, "verify.settled_fitness");
+    check_fraction(p.verify.turn_overlap, source, "verify.turn_overlap");
     check_positive(p.verify.free_space_margin, source, "verify.free_space_margin");
     check_fraction(p.verify.max_free_space_fraction, source, "verify.max_free_space_fraction");
     check_positive(p.verify.merge_distance, source, "verify.merge_distance");
@@ -240,6 +241,7 @@ RecognitionParams parse_recognition_params(std::string_view json_text, const std
             q.integer("min_rim_probes", p.verify.min_rim_probes);
             q.number("settled_fitness", p.verify.settled_fitness);
             q.boolean("try_turns", p.verify.try_turns);
+            q.number("turn_overlap", p.verify.turn_overlap);
             q.number("free_space_margin", p.verify.free_space_margin);
             q.number("max_free_space_fraction", p.verify.max_free_space_fraction);
             q.boolean("merge", p.verify.merge);
@@ -296,6 +298,7 @@ std::string to_json(const RecognitionParams& p)
           {"min_rim_probes", p.verify.min_rim_probes},
           {"settled_fitness", clean(p.verify.settled_fitness)},
           {"try_turns", p.verify.try_turns},
+          {"turn_overlap", clean(p.verify.turn_overlap)},
           {"free_space_margin", clean(p.verify.free_space_margin)},
           {"max_free_space_fraction", clean(p.verify.max_free_space_fraction)},
           {"merge", p.verify.merge},

@@ -321,6 +321,123 @@ Fit icp(const Pose& start, std::span<const Point> model, const IcpView& view, co
     return fit;
 }
 
+// The turns of a model about its axes under which it nearly covers itself: the poses an object is
+// mistaken for on the body they share (a mug about its axis, told apart only by its handle; a square
+// carton by quarter turns, told apart by its gable).
+//
+// The axes are those of the normals' scatter: for a solid of revolution, its axis (the points' own
+// principal axes tilt toward a mug's handle). Each runs through the point nearest the normals'
+// lines projected across it (where a solid of revolution's normals all meet its axis), robustly:
+// lines passing farther than `tolerance` from the last solution are left out of the next, or a
+// mug's handle, whose normals meet on its own centre line, would draw the centre 6 mm toward it.
+// A turn is kept when at least `overlap` of the points land within `tolerance` of the whole
+// model, but not 98% of them (a symmetry: a bottle about its axis is the same pose), judged on
+// at most 256 of the points. The steps are fine enough that the point farthest from the axis moves
+// at most `step_distance` from one to the next (ICP then converges from the step nearest the
+// truth), and the turns within one step of none are left out (ICP returns from them to the pose).
+std::vector<Pose> model_turns(std::span<const Point> points, std::span<const Point> normals, std::span<const Point> whole,
+                              float tolerance, float overlap, float step_distance)
+{
+    constexpr float symmetric_overlap = 0.98f;
+    constexpr std::size_t judged = 256;
+    std::vector<Pose> turns;
+    if (points.size() < 3 || whole.empty() || !(step_distance > 0.0f) || !(tolerance > 0.0f)) return turns;
+    Eigen::Matrix3d scatter = Eigen::Matrix3d::Zero();
+    Eigen::Vector3d centroid = Eigen::Vector3d::Zero();
+    std::vector<Eigen::Vector3d> units(points.size(), Eigen::Vector3d::Zero());  // zero: no normal
+    for (std::size_t i = 0; i < points.size(); ++i) {
+        centroid += points[i].cast<double>();
+        if (normals[i].allFinite() && normals[i].norm() > 0.0f) {
+            units[i] = normals[i].cast<double>().normalized();
+            scatter += units[i] * units[i].transpose();
+        }
+    }
+    centroid /= double(points.size());
+    const Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> axes(scatter);
+    const NeighborGrid model_grid(whole, tolerance);
+    const std::size_t stride = (points.size() + judged - 1) / judged;
+    for (int a = 0; a < 3; ++a) {
+        const Eigen::Vector3d axis = axes.eigenvectors().col(a);
+        const Eigen::Matrix3d along = axis * axis.transpose();
+        Eigen::Vector3d centre = centroid;
+        for (int round = 0; round < 4; ++round) {
+            Eigen::Matrix3d lhs = along;  // along the axis: the centroid
+            Eigen::Vector3d rhs = along * centroid;
+            for (std::size_t i = 0; i < points.size(); ++i) {
+                const Eigen::Vector3d across = units[i] - along * units[i];
+                const double weight = across.squaredNorm();  // how far the normal runs across the axis
+                if (weight < 1e-6) continue;
+                const Eigen::Vector3d m = across / std::sqrt(weight);
+                const Eigen::Matrix3d off_line = Eigen::Matrix3d::Identity() - m * m.transpose() - along;
+                const Eigen::Vector3d p = points[i].cast<double>();
+                if (round > 0 && (off_line * (centre - p)).norm() > double(tolerance)) continue;
+                lhs += weight * off_line;
+                rhs += weight * off_line * p;
+            }
+            const Eigen::Vector3d solved = lhs.ldlt().solve(rhs);
+            if (!solved.allFinite()) break;
+            centre = solved;
+        }
+        double radius = 0.0;
+        for (const Point& p : points) radius = std::max(radius, ((p.cast<double>() - centre) - along * (p.cast<double>() - centre)).norm());
+        const int steps = int(std::min(720.0, std::ceil(2.0 * M_PI * radius / double(step_distance))));
+        for (int k = 2; k < steps - 1; ++k) {
+            Pose turn = Pose::Identity();
+            turn.linear() = Eigen::AngleAxisd(2.0 * M_PI * k / steps, axis).toRotationMatrix().cast<float>();
+            turn.translation() = (centre - turn.linear().cast<double>() * centre).cast<float>();
+            std::size_t close = 0, asked = 0;
+            for (std::size_t i = 0; i < points.size(); i += stride, ++asked) {
+                std::uint32_t index = 0;
+                float squared = 0.0f;
+                close += model_grid.nearest(turn * points[i], tolerance, index, squared);
+            }
+            const float share = float(close) / float(asked);
+            if (share < overlap || share >= symmetric_overlap) continue;
+            const float apart = 180.0f / float(steps);  // half a step
+            if (std::none_of(turns.begin(), turns.end(), [&](const Pose& t) { return rotation_error_deg(t, turn) < apart; }))
+                turns.push_back(turn);
+        }
+    }
+    return turns;
+}
+
+// The depth image's pixels whose observed surface the seen model points explain: within `radius` of
+// one (the spacing of the points, so that their discs tile the surface) and within `tolerance` of
+// its tangent plane. The scene's side of the fit, which tells apart two poses of one object: a mug
+// turned with its handle behind its body explains the body as well as its true pose does, but not
+// the handle the sensor saw (while it has about as many model points fitting the scene, its handle
+// out of view no longer counting against it).
+std::size_t explained_pixels(const SceneEvidence& scene, std::span<const Point> placed, std::span<const Point> normals,
+                             const Pose& pose, std::span<const std::uint8_t> seen, float radius, float tolerance,
+                             std::vector<std::uint8_t>& marks, std::vector<std::size_t>& marked)
+{
+    const Camera& c = *scene.camera;
+    marks.resize(std::size_t(c.width) * c.height, 0);
+    for (std::size_t pixel : marked) marks[pixel] = 0;
+    marked.clear();
+    for (std::size_t i = 0; i < placed.size(); ++i) {
+        const Point& p = placed[i];
+        if (!seen[i] || !(p.z() > radius)) continue;
+        const Point n = pose.linear() * normals[i];
+        const float u0 = c.fx * p.x() / p.z() + c.cx, v0 = c.fy * p.y() / p.z() + c.cy;
+        const float reach_u = c.fx * radius / (p.z() - radius), reach_v = c.fy * radius / (p.z() - radius);
+        const long u_lo = std::max(0L, long(std::floor(u0 - reach_u))), u_hi = std::min(long(c.width) - 1, long(std::ceil(u0 + reach_u)));
+        const long v_lo = std::max(0L, long(std::floor(v0 - reach_v))), v_hi = std::min(long(c.height) - 1, long(std::ceil(v0 + reach_v)));
+        for (long v = v_lo; v <= v_hi; ++v)
+            for (long u = u_lo; u <= u_hi; ++u) {
+                const std::size_t pixel = std::size_t(v) * c.width + std::size_t(u);
+                const float z = scene.depth[pixel];
+                if (marks[pixel] || !std::isfinite(z)) continue;
+                const Point d = Point((float(u) - c.cx) * z / c.fx, (float(v) - c.cy) * z / c.fy, z) - p;
+                if (d.squaredNorm() <= radius * radius && std::abs(d.dot(n)) <= tolerance) {
+                    marks[pixel] = 1;
+                    marked.push_back(pixel);
+                }
+            }
+    }
+    return marked.size();
+}
+
 // Rim probes: where the model's surface would go on if the object were bigger. Each (thinned)
 // model point gets eight probes in its tangent plane, rim_distance away (VerifyParams says why
 // that far); a probe with a model point within 0.6 rim_distance lies on the model and is dropped,
@@ -537,7 +654,11 @@ std::vector<Instance> refine_and_verify(std::vector<Instance> instances, std::sp
     };
     // ICP from an instance's pose, then every test: the number of model points fitting the scene
     // when it passes them all (scratch.placed then holds the model where the pose puts it).
+    bool body_fits = false;  // whether the last pose tested passed fitness, coverage and thickness
+    Pose last_pose = Pose::Identity();  // the last pose tested, with its fitting points
+    std::size_t last_inliers = 0;
     auto refine_and_test = [&](Instance& instance) -> std::optional<std::size_t> {
+        body_fits = false;
         if (refine.enabled) {
             const Fit fit = icp(instance.transform, points, view, scene, refine, scratch, occlusion);
             instance.transform = fit.pose;
@@ -596,6 +717,8 @@ std::vector<Instance> refine_and_verify(std::vector<Instance> instances, std::sp
         instance.fitness = visible ? float(inliers) / float(visible) : 0.0f;
         instance.coverage = facing ? float(inliers) / float(facing) : 0.0f;
         instance.free_space_violation = projected ? float(violations) / float(projected) : 0.0f;
+        body_fits = instance.fitness >= verify.min_inlier_fraction && instance.coverage >= verify.min_coverage &&
+                    instance.thickness_ratio >= verify.min_thickness_ratio;
         if (instance.fitness < verify.min_inlier_fraction || instance.coverage < verify.min_coverage ||
             instance.free_space_violation > verify.max_free_space_fraction ||
             instance.thickness_ratio < verify.min_thickness_ratio)
@@ -608,11 +731,13 @@ std::vector<Instance> refine_and_verify(std::vector<Instance> instances, std::sp
         const std::size_t rim_settled = rim.continued + rim.free;
         instance.continuation = rim_settled ? float(rim.continued) / float(rim_settled) : 0.0f;
         if (rim_refutes(rim.continued, rim_settled, verify)) return std::nullopt;
+        last_pose = instance.transform;
+        last_inliers = inliers;
         return inliers;
     };
     // Quarter and half turns about the model's principal axes through its centroid: the poses a
     // nearly symmetric object is mistaken for.
-    std::vector<Pose> turns;
+    std::vector<Pose> quarter_turns;
     if (verify.try_turns && points.size() >= 3) {
         Spread spread;
         for (const Point& p : points) spread.add(p);
@@ -623,9 +748,21 @@ std::vector<Instance> refine_and_verify(std::vector<Instance> instances, std::sp
                 Pose turn = Pose::Identity();
                 turn.linear() = Eigen::AngleAxisd(quarter * M_PI / 2.0, axes.eigenvectors().col(axis)).toRotationMatrix().cast<float>();
                 turn.translation() = (centre - turn.linear().cast<double>() * centre).cast<float>();
-                turns.push_back(turn);
+                quarter_turns.push_back(turn);
             }
     }
+    // The turns the model nearly covers itself under, found when a hypothesis first needs them.
+    std::optional<std::vector<Pose>> confusable;
+    // The depth pixels that the seen points of the pose refine_and_test just placed and tested
+    // explain (explained_pixels, each point's disc a little wider than their spacing so that the
+    // discs cover the surface between them); without a depth image, its fitting model points.
+    std::vector<std::uint8_t> pixel_marks;
+    std::vector<std::size_t> marked_pixels;
+    auto explained = [&]() -> std::size_t {
+        if (!scene.camera) return last_inliers;
+        return explained_pixels(scene, scratch.placed, normals, last_pose, scratch.wanted, 1.5f * disc_radius,
+                                verify.inlier_distance, pixel_marks, marked_pixels);
+    };
     for (std::size_t n = 0; n < instances.size(); ++n) {
         Instance& instance = instances[n];
         if (verify.enabled) place(instance.transform, points, scratch.placed);  // the start, for both checks
@@ -653,31 +790,58 @@ std::vector<Instance> refine_and_verify(std::vector<Instance> instances, std::sp
             continue;
         }
         const std::optional<std::size_t> fitting = refine_and_test(instance);
-        if (!fitting) continue;
-        std::size_t inliers = *fitting;
-        // A nearly symmetric object (a square carton told apart by its gable, a box by its
-        // proportions, a mug by its handle) is often posed a turn away from its truth, a pose
-        // that passes every test on the body it shares with it. Turned about each of the model's
-        // principal axes by quarter turns and refined again, it keeps the pose that explains
-        // most of the scene, as the merge below judges two instances of one object.
-        // A settled instance explains nearly all it could (no other pose fits much better), and a
-        // turn that starts explaining less than the pose it would replace is not refined.
-        if (verify.try_turns && instance.fitness < verify.settled_fitness) {
+        // A nearly symmetric object (a mug told apart by its handle, a square carton by its gable, a
+        // box by its proportions) is often posed a turn away from its truth, on the body the two
+        // poses share: a pose that passes every test, or that only its rim or free space refutes
+        // (the handle the sensor saw left beyond its edge, or its own in front of a surface seen).
+        if (!fitting && !(verify.try_turns && body_fits)) continue;
+        bool passed = fitting.has_value();
+        std::size_t inliers = fitting.value_or(0);
+        // A turn that starts with fewer facing points near the scene than the pose is not refined.
+        auto try_turn = [&](const Pose& turn, std::size_t near) -> std::optional<Instance> {
+            Instance twin;
+            twin.transform = instance.transform * turn;
+            if (near_count(twin.transform).near < near) return std::nullopt;
+            const std::optional<std::size_t> fitting_points = refine_and_test(twin);
+            if (!fitting_points) return std::nullopt;
+            twin.votes = instance.votes;
+            return twin;
+        };
+        auto adopt = [&](Instance& twin) {
+            twin.correspondences = std::move(instance.correspondences);
+            instance = std::move(twin);
+            passed = true;
+            inliers = last_inliers;
+        };
+        if (verify.try_turns) {
+            // Refined and tested from each of its confusable turns (model_turns), it keeps the pose
+            // that explains the most scene pixels: what tells the turns apart is a small part, and
+            // the fitting model points would count it against the pose that shows it.
+            if (!confusable)
+                confusable = model_turns(points, normals, model_points, verify.inlier_distance, verify.turn_overlap,
+                                         refine.max_distance);
+            std::size_t explains = passed ? explained() : 0;
             const std::size_t near = near_count(instance.transform).near;
-            for (const Pose& turn : turns) {
-                Instance twin;
-                twin.transform = instance.transform * turn;
-                if (near_count(twin.transform).near < near) continue;
-                const std::optional<std::size_t> more = refine_and_test(twin);
-                if (more && *more > inliers) {
-                    twin.votes = instance.votes;
-                    twin.correspondences = std::move(instance.correspondences);
-                    instance = std::move(twin);
-                    inliers = *more;
+            for (const Pose& turn : *confusable)
+                if (std::optional<Instance> twin = try_turn(turn, near)) {
+                    if (const std::size_t more = explained(); !passed || more > explains) {
+                        adopt(*twin);
+                        explains = more;
+                    }
                 }
+            // One that passed but is not settled is also tried from quarter and half turns about the
+            // model's principal axes (a box's proportions are not confusable, and a turn of them
+            // shows a different side), and keeps the one with the most model points fitting the
+            // scene, as the merge below judges.
+            if (passed && instance.fitness < verify.settled_fitness) {
+                const std::size_t quarter_near = near_count(instance.transform).near;
+                for (const Pose& turn : quarter_turns)
+                    if (std::optional<Instance> twin = try_turn(turn, quarter_near); twin && last_inliers > inliers)
+                        adopt(*twin);
             }
             place(instance.transform, points, scratch.placed);
         }
+        if (!passed) continue;
         const std::vector<Point>& at = scratch.placed;
         accepted.push_back(n);
         accepted_inliers.push_back(inliers);

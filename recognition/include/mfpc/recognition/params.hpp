@@ -130,12 +130,21 @@ struct VerifyParams {
     /// overlapping it are not verified. Poses slid along a flat face still explain most of it (a box
     /// slid 12 mm along its 10 cm side: 0.96), hence a bar this high.
     float settled_fitness = 0.99f;
-    /// An accepted instance is also refined and tested from its pose turned by quarter and half
-    /// turns about each principal axis of the model (through its centroid), and keeps the pose
-    /// with the most model points fitting the scene: a nearly symmetric object (a square carton
-    /// told apart by its gable, a box by its proportions, a mug by its handle) is often posed a
-    /// turn away from its truth, on the body the two poses share.
+    /// A nearly symmetric object (a mug told apart by its handle, a square carton by its gable, a
+    /// box by its proportions) is often posed a turn away from its truth, on the body the two
+    /// poses share. An instance that passes, or that only its rim or free space refutes, is then
+    /// refined and tested again from its confusable turns (see turn_overlap) and keeps the pose
+    /// whose seen points explain the most depth pixels; one that passed but is not settled is also
+    /// tried from quarter and half turns about the model's principal axes, and keeps the pose with
+    /// the most model points fitting the scene (see refine_and_verify).
     bool try_turns = true;
+    /// A turn of the model about one of its axes is confusable (see try_turns) when it puts at least
+    /// this fraction of the model's points within inlier_distance of the model, and not 98% of them
+    /// (a symmetry, such as a bottle's about its axis, gives the same pose): on the synthetic set's
+    /// objects, 0.91 for a mug about its axis (all but its handle) and a square carton by a quarter
+    /// turn (all but its gable), 0.75 or less for any other turn of a carton, a box or a jug but a
+    /// few degrees.
+    float turn_overlap = 0.75f;
     bool merge = true;                   ///< Merge instances whose placed models overlap: ...
     float merge_distance = 0.01f;        ///< ... points closer than this (metres) overlap, ...
     float merge_overlap = 0.2f;          ///< ... and this fraction of overlapping points merges.

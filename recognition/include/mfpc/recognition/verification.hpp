@@ -80,10 +80,20 @@ std::vector<std::uint8_t> model_points_in_view(std::span<const Point> points, st
 /// cannot be there); and the continuation: of the probes just past the edges of the fitting part of
 /// the model, the fraction where the scene's surface goes on rather than the sensor seeing past
 /// them (a pose slid along its object's face leaves the rest of the object there). Instances
-/// failing the limits are dropped. With VerifyParams::try_turns, an accepted instance that is not
-/// settled is refined and tested again from its pose turned by quarter, half and three-quarter
-/// turns about the model's principal axes (those turns that start with at least as many facing
-/// points near the scene), and keeps the pose with the most model points fitting the scene.
+/// failing the limits are dropped.
+///
+/// With VerifyParams::try_turns, an instance that passes, or that only its continuation or free
+/// space refutes, is refined and tested again from its confusable turns: the turns about the axes
+/// of the model's normals (through the point nearest their lines) under which at least
+/// VerifyParams::turn_overlap of the model, but not 98%, lands within inlier_distance of itself,
+/// in steps that move no point more than the ICP distance. Of the turns that pass (those that
+/// start with at least as many facing points near the scene), it keeps the pose whose seen points
+/// explain the most depth pixels (a scene pixel is explained within 1.5 point spacings of a seen
+/// point and inlier_distance of its tangent plane; without a depth image, the most model points
+/// fitting): what tells a mug's turns apart is its handle, which the fitting model points count
+/// against the pose that shows it. One that passed but is not settled is also tried from quarter,
+/// half and three-quarter turns about the model's principal axes, and keeps the pose with the most
+/// model points fitting the scene.
 ///
 /// Duplicates (placed models overlapping: merge_overlap of one's points within merge_distance of the
 /// other's): instances are taken in the order given (grouping's: most votes first), and one that
