@@ -112,7 +112,6 @@ void nearest_scene_points(std::span<const std::uint8_t> wanted, const SceneEvide
     });
 }
 
-
 // Two solid objects cannot share space: a placed model with merge_overlap of its points within
 // merge_distance of another's is the same object posed twice (a near-symmetric carton turned half
 // a turn, or slid along its own face).
@@ -270,20 +269,20 @@ void hidden_by_model(std::span<const Point> placed, std::span<const Point> model
 
 // What ICP pairs with the scene: the model points the sensor would see at the pose being refined.
 struct IcpView {
-    std::span<const Point> normals;  // one per (thinned) model point; none: every point
+    std::span<const Point> normals;  // one per (thinned) model point
     float min_facing_cos = 0.0f;     // VerifyParams::min_facing_cos
     float disc_radius = 0.0f;        // the points' spacing, for hidden_by_model
 };
 
 // ICP (point to point) of the model points the sensor would see at the current pose: facing it and
-// not hidden by the model itself, asked again at each iteration. Were every point paired, the
-// hidden ones would pair with the nearest seen surface and pull the pose toward the sensor: a
-// mug's inner front wall, behind its outer one, pairs with that outer wall, and its outer back wall
-// with the inner back wall seen over the rim. From their true poses, the synthetic set's mugs were
-// refined 3-7 mm up and toward the sensor, enough for their rim to refute them. The seen points
-// are found again every visibility_period iterations: an iteration moves the pose by millimetres,
-// which changes few of them, and finding them costs as much as two iterations (on the 40 kinect
-// scenes, every iteration: verification 40% slower for the same instances found).
+// not hidden by the model itself. Were every point paired, the hidden ones would pair with the
+// nearest seen surface and pull the pose toward the sensor: a mug's inner front wall, behind its
+// outer one, pairs with that outer wall, and its outer back wall with the inner back wall seen over
+// the rim. From their true poses, the synthetic set's mugs were refined 3-7 mm up and toward the
+// sensor, enough for their rim to refute them. The seen points are found again every
+// visibility_period iterations: an iteration moves the pose by millimetres, which changes few of
+// them, and finding them costs about two iterations (every iteration, on the 40 kinect scenes:
+// verification's median 410 ms against 277, as many instances found).
 constexpr int visibility_period = 5;
 Fit icp(const Pose& start, std::span<const Point> model, const IcpView& view, const SceneEvidence& scene,
         const RefineParams& params, Scratch& scratch, SelfOcclusion& occlusion)
@@ -293,9 +292,7 @@ Fit icp(const Pose& start, std::span<const Point> model, const IcpView& view, co
     std::vector<std::uint8_t> seen(model.size()), hidden;
     for (int it = 0; it < params.iterations; ++it) {
         place(fit.pose, model, scratch.placed);
-        if (view.normals.empty()) {
-            std::fill(seen.begin(), seen.end(), 1);  // every point, as onto the model itself
-        } else if (it % visibility_period == 0) {
+        if (it % visibility_period == 0) {
             for (std::size_t i = 0; i < model.size(); ++i)
                 seen[i] = faces_camera(fit.pose, scratch.placed[i], view.normals[i], view.min_facing_cos);
             hidden_by_model(scratch.placed, view.normals, fit.pose, seen, view.disc_radius, 3.0f * view.disc_radius,
@@ -332,11 +329,12 @@ Fit icp(const Pose& start, std::span<const Point> model, const IcpView& view, co
 // mug's handle, whose normals meet on its own centre line, would draw the centre 6 mm toward it.
 // A turn is kept when at least `overlap` of the points land within `tolerance` of the whole
 // model, but not 98% of them (a symmetry: a bottle about its axis is the same pose), judged on
-// at most 256 of the points. The steps are fine enough that the point farthest from the axis moves
-// at most `step_distance` from one to the next (ICP then converges from the step nearest the
-// truth), and the turns within one step of none are left out (ICP returns from them to the pose).
-std::vector<Pose> model_turns(std::span<const Point> points, std::span<const Point> normals, std::span<const Point> whole,
-                              float tolerance, float overlap, float step_distance)
+// at most 256 of the points. The steps (at most 720 a turn) are fine enough that the point farthest
+// from the axis moves at most `step_distance` from one to the next (ICP then converges from the
+// step nearest the truth); a turn of one step either way is left out (ICP would return from it to
+// the pose).
+std::vector<Pose> model_turns(std::span<const Point> points, std::span<const Point> normals,
+                              std::span<const Point> whole, float tolerance, float overlap, float step_distance)
 {
     constexpr float symmetric_overlap = 0.98f;
     constexpr std::size_t judged = 256;
@@ -379,7 +377,10 @@ std::vector<Pose> model_turns(std::span<const Point> points, std::span<const Poi
             centre = solved;
         }
         double radius = 0.0;
-        for (const Point& p : points) radius = std::max(radius, ((p.cast<double>() - centre) - along * (p.cast<double>() - centre)).norm());
+        for (const Point& p : points) {
+            const Eigen::Vector3d d = p.cast<double>() - centre;
+            radius = std::max(radius, (d - along * d).norm());
+        }
         const int steps = int(std::min(720.0, std::ceil(2.0 * M_PI * radius / double(step_distance))));
         for (int k = 2; k < steps - 1; ++k) {
             Pose turn = Pose::Identity();
@@ -394,7 +395,8 @@ std::vector<Pose> model_turns(std::span<const Point> points, std::span<const Poi
             const float share = float(close) / float(asked);
             if (share < overlap || share >= symmetric_overlap) continue;
             const float apart = 180.0f / float(steps);  // half a step
-            if (std::none_of(turns.begin(), turns.end(), [&](const Pose& t) { return rotation_error_deg(t, turn) < apart; }))
+            if (std::none_of(turns.begin(), turns.end(),
+                             [&](const Pose& t) { return rotation_error_deg(t, turn) < apart; }))
                 turns.push_back(turn);
         }
     }
@@ -402,11 +404,11 @@ std::vector<Pose> model_turns(std::span<const Point> points, std::span<const Poi
 }
 
 // The depth image's pixels whose observed surface the seen model points explain: within `radius` of
-// one (the spacing of the points, so that their discs tile the surface) and within `tolerance` of
-// its tangent plane. The scene's side of the fit, which tells apart two poses of one object: a mug
-// turned with its handle behind its body explains the body as well as its true pose does, but not
-// the handle the sensor saw (while it has about as many model points fitting the scene, its handle
-// out of view no longer counting against it).
+// one (a little more than the points' spacing, so that their discs cover the surface between them)
+// and within `tolerance` of its tangent plane. The scene's side of the fit, which tells apart two
+// poses of one object: a mug turned with its handle behind its body explains the body as well as
+// its true pose does, but not the handle the sensor saw (while it has about as many model points
+// fitting the scene, its handle out of view no longer counting against it).
 std::size_t explained_pixels(const SceneEvidence& scene, std::span<const Point> placed, std::span<const Point> normals,
                              const Pose& pose, std::span<const std::uint8_t> seen, float radius, float tolerance,
                              std::vector<std::uint8_t>& marks, std::vector<std::size_t>& marked)
@@ -421,8 +423,10 @@ std::size_t explained_pixels(const SceneEvidence& scene, std::span<const Point> 
         const Point n = pose.linear() * normals[i];
         const float u0 = c.fx * p.x() / p.z() + c.cx, v0 = c.fy * p.y() / p.z() + c.cy;
         const float reach_u = c.fx * radius / (p.z() - radius), reach_v = c.fy * radius / (p.z() - radius);
-        const long u_lo = std::max(0L, long(std::floor(u0 - reach_u))), u_hi = std::min(long(c.width) - 1, long(std::ceil(u0 + reach_u)));
-        const long v_lo = std::max(0L, long(std::floor(v0 - reach_v))), v_hi = std::min(long(c.height) - 1, long(std::ceil(v0 + reach_v)));
+        const long u_lo = std::max(0L, long(std::floor(u0 - reach_u)));
+        const long u_hi = std::min(long(c.width) - 1, long(std::ceil(u0 + reach_u)));
+        const long v_lo = std::max(0L, long(std::floor(v0 - reach_v)));
+        const long v_hi = std::min(long(c.height) - 1, long(std::ceil(v0 + reach_v)));
         for (long v = v_lo; v <= v_hi; ++v)
             for (long u = u_lo; u <= u_hi; ++u) {
                 const std::size_t pixel = std::size_t(v) * c.width + std::size_t(u);
