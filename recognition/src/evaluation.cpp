@@ -66,7 +66,7 @@ Evaluation evaluate(const RecognitionResult& result, const Model& model, const G
     // cell keeps one side or the other in patches. Its spacing is found when first asked.
     float spacing = -1.0f;
     auto seen_at = [&](const Pose& pose) {
-        constexpr float facing_cos = 0.2588f;  // cos 75°: VerifyParams::min_facing_cos says why
+        const float facing_cos = VerifyParams{}.min_facing_cos;  // a depth sensor's, as verification's
         const std::vector<std::uint8_t> seen = model_points_in_view(model.points, model.normals, pose, facing_cos, spacing);
         std::vector<Point> points;
         for (std::size_t i = 0; i < model.points.size(); ++i)

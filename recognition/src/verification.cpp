@@ -167,10 +167,10 @@ float nearest_depth_around(const SceneEvidence& scene, std::size_t pixel)
 // The facing model points that the model itself hides from the sensor at a pose (a mug's inside
 // behind its front wall). Each placed point stands for a disc of `radius` in its tangent plane (the
 // thinned model's spacing, so that the discs close the surface); a facing point is hidden when the
-// ray to it crosses another point's disc more than `margin` before reaching it. Near an edge of a
+// ray to it crosses another point's disc more than three radii before reaching it. Near an edge of a
 // convex model a disc reaches past the edge over the face beside it, and the ray to a point on
 // that face crosses it up to about three radii early: the margin must be that, and only hollows
-// deeper than it count. The discs are bucketed by where they project, in coordinates x/z and y/z,
+// deeper count. The discs are bucketed by where they project, in coordinates x/z and y/z,
 // so that each point asks only the discs over it. No camera is needed: the sensor is the origin,
 // as for faces_camera.
 struct SelfOcclusion {
@@ -182,9 +182,10 @@ struct SelfOcclusion {
     std::vector<std::uint32_t> first, cursor, discs;  // cell c's discs: discs[first[c] .. first[c + 1])
 };
 void hidden_by_model(std::span<const Point> placed, std::span<const Point> model_normals, const Pose& pose,
-                     std::span<const std::uint8_t> facing, float radius, float margin, SelfOcclusion& work,
+                     std::span<const std::uint8_t> facing, float radius, SelfOcclusion& work,
                      std::vector<std::uint8_t>& hidden)
 {
+    const float margin = 3.0f * radius;
     const std::size_t n = placed.size();
     hidden.assign(n, 0);
     if (!(radius > 0.0f)) return;
@@ -267,6 +268,17 @@ void hidden_by_model(std::span<const Point> placed, std::span<const Point> model
     }
 }
 
+// The placed model points the sensor would see at `pose`, were nothing else in front of them:
+// facing it (faces_camera) and not hidden by the model itself (hidden_by_model, discs of `spacing`).
+void seen_by_sensor(std::span<const Point> placed, std::span<const Point> normals, const Pose& pose,
+                    float min_facing_cos, float spacing, SelfOcclusion& work, std::vector<std::uint8_t>& hidden,
+                    std::span<std::uint8_t> seen)
+{
+    for (std::size_t i = 0; i < placed.size(); ++i) seen[i] = faces_camera(pose, placed[i], normals[i], min_facing_cos);
+    hidden_by_model(placed, normals, pose, seen, spacing, work, hidden);
+    for (std::size_t i = 0; i < placed.size(); ++i) seen[i] = seen[i] && !hidden[i];
+}
+
 // What ICP pairs with the scene: the model points the sensor would see at the pose being refined.
 struct IcpView {
     std::span<const Point> normals;  // one per (thinned) model point
@@ -292,13 +304,9 @@ Fit icp(const Pose& start, std::span<const Point> model, const IcpView& view, co
     std::vector<std::uint8_t> seen(model.size()), hidden;
     for (int it = 0; it < params.iterations; ++it) {
         place(fit.pose, model, scratch.placed);
-        if (it % visibility_period == 0) {
-            for (std::size_t i = 0; i < model.size(); ++i)
-                seen[i] = faces_camera(fit.pose, scratch.placed[i], view.normals[i], view.min_facing_cos);
-            hidden_by_model(scratch.placed, view.normals, fit.pose, seen, view.disc_radius, 3.0f * view.disc_radius,
-                            occlusion, hidden);
-            for (std::size_t i = 0; i < model.size(); ++i) seen[i] = seen[i] && !hidden[i];
-        }
+        if (it % visibility_period == 0)
+            seen_by_sensor(scratch.placed, view.normals, fit.pose, view.min_facing_cos, view.disc_radius, occlusion,
+                           hidden, seen);
         nearest_scene_points(seen, scene, params.max_distance, scratch);
         from.clear();
         to.clear();
@@ -582,10 +590,8 @@ std::vector<std::uint8_t> model_points_in_view(std::span<const Point> points, st
     std::vector<Point> placed(points.size());
     place(pose, points, placed);
     std::vector<std::uint8_t> seen(points.size()), hidden;
-    for (std::size_t i = 0; i < points.size(); ++i) seen[i] = faces_camera(pose, placed[i], normals[i], min_facing_cos);
     SelfOcclusion work;
-    hidden_by_model(placed, normals, pose, seen, spacing, 3.0f * spacing, work, hidden);
-    for (std::size_t i = 0; i < points.size(); ++i) seen[i] = seen[i] && !hidden[i];
+    seen_by_sensor(placed, normals, pose, min_facing_cos, spacing, work, hidden, seen);
     return seen;
 }
 
@@ -680,8 +686,7 @@ std::vector<Instance> refine_and_verify(std::vector<Instance> instances, std::sp
         const std::vector<Point>& at = scratch.placed;
         for (std::size_t i = 0; i < points.size(); ++i)
             faces_sensor[i] = faces_camera(instance.transform, at[i], normals[i], verify.min_facing_cos);
-        hidden_by_model(at, normals, instance.transform, faces_sensor, disc_radius, 3.0f * disc_radius, occlusion,
-                        self_hidden);
+        hidden_by_model(at, normals, instance.transform, faces_sensor, disc_radius, occlusion, self_hidden);
         std::size_t facing = 0, visible = 0, inliers = 0, projected = 0, violations = 0;
         Spread facing_spread, inlier_spread;
         for (std::size_t i = 0; i < points.size(); ++i) {
