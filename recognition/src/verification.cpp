@@ -450,6 +450,26 @@ std::size_t explained_pixels(const SceneEvidence& scene, std::span<const Point> 
     return marked.size();
 }
 
+// What the scene says of a pose where another pose of the same object differs from it: the sum of
+// the evidence (+1 a point the scene explains, -1 one it contradicts, 0 no say) of its points
+// (`placed`) with no point of the other placement (`other`) within `apart`. Two poses sharing a
+// body (a mug turned about its axis) differ only in a small part (its handle): counted over the
+// whole object, the part is lost in the body's noise, which shifts by a few per cent between two
+// refinements of the same body (stereo noise).
+long support_where_apart(std::span<const Point> placed, std::span<const std::int8_t> evidence,
+                         std::span<const Point> other, float apart)
+{
+    const NeighborGrid grid(other, apart);
+    long support = 0;
+    for (std::size_t i = 0; i < placed.size(); ++i) {
+        if (evidence[i] == 0) continue;
+        std::uint32_t index = 0;
+        float squared = 0.0f;
+        if (!grid.nearest(placed[i], apart, index, squared)) support += evidence[i];
+    }
+    return support;
+}
+
 // Rim probes: where the model's surface would go on if the object were bigger. Each (thinned)
 // model point gets eight probes in its tangent plane, rim_distance away (VerifyParams says why
 // that far); a probe with a model point within 0.6 rim_distance lies on the model and is dropped,
@@ -667,6 +687,10 @@ std::vector<Instance> refine_and_verify(std::vector<Instance> instances, std::sp
     bool body_fits = false;  // whether the last pose tested passed fitness, coverage and thickness
     Pose last_pose = Pose::Identity();  // the last pose tested, with its fitting points
     std::size_t last_inliers = 0;
+    // Per model point at the last pose tested: where it lies, and +1 where it fits the scene, -1
+    // where the sensor would see it and saw past it, 0 otherwise (support_where_apart).
+    std::vector<Point> last_placed;
+    std::vector<std::int8_t> last_evidence(points.size());
     auto refine_and_test = [&](Instance& instance) -> std::optional<std::size_t> {
         body_fits = false;
         if (refine.enabled) {
@@ -692,6 +716,7 @@ std::vector<Instance> refine_and_verify(std::vector<Instance> instances, std::sp
         for (std::size_t i = 0; i < points.size(); ++i) {
             const Point& p = at[i];
             bool hidden = false;
+            last_evidence[i] = 0;
             // What the sensor could see of the object were nothing else in front of it.
             const bool faces = faces_sensor[i] && !self_hidden[i];
             const bool edge_on = normals[i].allFinite() && !faces_sensor[i] &&
@@ -703,7 +728,9 @@ std::vector<Instance> refine_and_verify(std::vector<Instance> instances, std::sp
                     // Every pixel around must show a surface behind it: a point on the object's
                     // outline projects to either side of it as its pixel rounds, and the ray
                     // through the pixel beside may pass the object.
-                    if (nearest_depth_around(scene, pixel) > p.z() + verify.free_space_margin) ++violations;
+                    const bool seen_through = nearest_depth_around(scene, pixel) > p.z() + verify.free_space_margin;
+                    violations += seen_through;
+                    last_evidence[i] = faces && seen_through ? -1 : 0;
                 }
             }
             if (faces) {
@@ -718,7 +745,9 @@ std::vector<Instance> refine_and_verify(std::vector<Instance> instances, std::sp
             if (scratch.nearest[i] != no_match) {
                 ++inliers;
                 inlier_spread.add(at[i]);
+                last_evidence[i] = 1;
             }
+        last_placed = at;
         // A side of the model that is itself flat (a box seen face on) cannot be told from a face
         // laid on a table by its shape: the test passes it.
         const float facing_thickness = facing_spread.thickness();
@@ -806,6 +835,9 @@ std::vector<Instance> refine_and_verify(std::vector<Instance> instances, std::sp
         if (!fitting && !(verify.try_turns && body_fits)) continue;
         bool passed = fitting.has_value();
         std::size_t inliers = fitting.value_or(0);
+        // The pose kept, placed, and its evidence (support_where_apart).
+        std::vector<Point> kept_placed = last_placed;
+        std::vector<std::int8_t> kept_evidence = last_evidence;
         // A turn that starts with fewer facing points near the scene than the pose is not refined.
         auto try_turn = [&](const Pose& turn, std::size_t near) -> std::optional<Instance> {
             Instance twin;
@@ -821,11 +853,19 @@ std::vector<Instance> refine_and_verify(std::vector<Instance> instances, std::sp
             instance = std::move(twin);
             passed = true;
             inliers = last_inliers;
+            kept_placed.swap(last_placed);
+            kept_evidence.swap(last_evidence);
         };
+        // Two poses of one object sharing a body differ by at least the thinned model's spacing
+        // where they differ (a turned point of a solid of revolution lands between the points of
+        // the other), and by less on the body they share.
+        const float apart = std::max(verify.inlier_distance, 1.5f * disc_radius);
         if (verify.try_turns) {
             // Refined and tested from each of its confusable turns (model_turns), it keeps the pose
-            // that explains the most scene pixels: what tells the turns apart is a small part, and
-            // the fitting model points would count it against the pose that shows it.
+            // the scene supports best where the two differ (support_where_apart), then, where that
+            // says nothing either way (the part that tells them apart hidden at both), the pose
+            // that explains the most scene pixels: the fitting model points would count a visible
+            // handle against the pose that shows it.
             if (!confusable)
                 confusable = model_turns(points, normals, model_points, verify.inlier_distance, verify.turn_overlap,
                                          refine.max_distance);
@@ -833,7 +873,11 @@ std::vector<Instance> refine_and_verify(std::vector<Instance> instances, std::sp
             const std::size_t near = near_count(instance.transform).near;
             for (const Pose& turn : *confusable)
                 if (std::optional<Instance> twin = try_turn(turn, near)) {
-                    if (const std::size_t more = explained(); !passed || more > explains) {
+                    const std::size_t more = explained();
+                    const long margin = passed ? support_where_apart(last_placed, last_evidence, kept_placed, apart) -
+                                                     support_where_apart(kept_placed, kept_evidence, last_placed, apart)
+                                               : 1;
+                    if (margin > 0 || (margin == 0 && more > explains)) {
                         adopt(*twin);
                         explains = more;
                     }

@@ -153,12 +153,12 @@ TEST(SyntheticSet, GeneratedEvaluatedAndReportedWithABrokenScene)
     EXPECT_THROW(evaluate_dataset(set, RecognitionParams{}, false, "", options), Error);
 }
 
-// A set of one Kinect scene as `mfpc synth-set --presets kinect --scenes 1 --first-seed SEED
-// --shapes SHAPE` writes it: scene k of the default set is seed k + 1 with shape k of the five.
-Dataset one_kinect_scene(const test::TempDir& dir, std::uint32_t seed, const std::string& shape)
+// A set of one scene as `mfpc synth-set --presets PRESET --scenes 1 --first-seed SEED --shapes
+// SHAPE` writes it: scene k of the default set is seed k + 1 with shape k of the five.
+Dataset one_scene(const test::TempDir& dir, const std::string& preset, std::uint32_t seed, const std::string& shape)
 {
     SyntheticSetParams params;
-    params.presets = {"kinect"};
+    params.presets = {preset};
     params.scenes = 1;
     params.first_seed = seed;
     params.shapes = {shape};
@@ -177,7 +177,7 @@ Dataset one_kinect_scene(const test::TempDir& dir, std::uint32_t seed, const std
 TEST(SyntheticSet, TwoBoxesFoundAndWhereMissedOnesWereLost)
 {
     const test::TempDir dir;
-    const Dataset set = one_kinect_scene(dir, 34, "box");
+    const Dataset set = one_scene(dir, "kinect", 34, "box");
     DatasetOptions options;
     options.foveated = false;
     options.explain = true;
@@ -210,7 +210,7 @@ TEST(SyntheticSet, TwoBoxesFoundAndWhereMissedOnesWereLost)
 std::pair<Evaluation, Evaluation> unturned_and_turned(const test::TempDir& dir, std::uint32_t seed,
                                                     const std::string& shape)
 {
-    const Dataset set = one_kinect_scene(dir, seed, shape);
+    const Dataset set = one_scene(dir, "kinect", seed, shape);
     DatasetOptions options;
     options.foveated = false;
     RecognitionParams unturned;
@@ -247,6 +247,27 @@ TEST(SyntheticSet, AMugPosedWithItsHandleTurnedAwayIsTurnedBack)
     EXPECT_EQ(before.instances_false, 1u);
     EXPECT_EQ(now.instances_false, 0u);
     EXPECT_EQ(now.instances_true, 2u);
+}
+
+// Two mugs before a stereo sensor (the set's stereo_027), the nearer one in full view. Its turns
+// about its axis fit the body alike and each explains about as many of the noisy depth pixels (the
+// poses 15 to 50 degrees off its truth explained 3% more than its truth did): judged where the two
+// poses differ, by the handle the sensor saw, the true pose is kept.
+TEST(SyntheticSet, AMugBeforeANoisySensorKeepsTheTurnItsHandleShows)
+{
+    const test::TempDir dir;
+    const Dataset set = one_scene(dir, "stereo", 28, "mug");
+    DatasetOptions options;
+    options.foveated = false;
+    const DatasetReport report = evaluate_dataset(set, RecognitionParams{}, false, "", options);
+    ASSERT_EQ(report.scenes.size(), 1u);
+    EXPECT_EQ(report.scenes[0].evaluation.instances_false, 0u);
+    ASSERT_EQ(report.scenes[0].truth.size(), 2u);
+    for (const TruthOutcome& truth : report.scenes[0].truth) {
+        if (truth.visible_fraction > 0.99f) {
+            EXPECT_TRUE(truth.found);
+        }
+    }
 }
 
 TEST(CliEvaluate, BadInputIsOneLine)
