@@ -856,9 +856,9 @@ std::vector<Instance> refine_and_verify(std::vector<Instance> instances, std::sp
             kept_placed.swap(last_placed);
             kept_evidence.swap(last_evidence);
         };
-        // Two poses of one object sharing a body differ by at least the thinned model's spacing
-        // where they differ (a turned point of a solid of revolution lands between the points of
-        // the other), and by less on the body they share.
+        // On the body two poses share, each point of one lies within about a spacing of a point
+        // of the other (a turned point of a solid of revolution lands between the other's points);
+        // where they differ, farther.
         const float apart = std::max(verify.inlier_distance, 1.5f * disc_radius);
         if (verify.try_turns) {
             // Refined and tested from each of its confusable turns (model_turns), it keeps the pose
