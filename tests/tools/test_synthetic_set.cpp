@@ -263,11 +263,14 @@ TEST(SyntheticSet, AMugBeforeANoisySensorKeepsTheTurnItsHandleShows)
     ASSERT_EQ(report.scenes.size(), 1u);
     EXPECT_EQ(report.scenes[0].evaluation.instances_false, 0u);
     ASSERT_EQ(report.scenes[0].truth.size(), 2u);
+    std::size_t in_full_view = 0;
     for (const TruthOutcome& truth : report.scenes[0].truth) {
         if (truth.visible_fraction > 0.99f) {
+            ++in_full_view;
             EXPECT_TRUE(truth.found);
         }
     }
+    EXPECT_EQ(in_full_view, 1u);
 }
 
 TEST(CliEvaluate, BadInputIsOneLine)
