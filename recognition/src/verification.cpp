@@ -656,7 +656,11 @@ std::vector<Instance> refine_and_verify(std::vector<Instance> instances, std::sp
     const float disc_radius = points.size() >= 2 ? float(mean_spacing(points)) : 0.0f;
     SelfOcclusion occlusion;
     const IcpView view{normals, verify.min_facing_cos, disc_radius};
-    std::vector<std::uint8_t> faces_sensor(points.size()), self_hidden;
+    // Where two poses of one object differ (support_where_apart): on the body they share, each point
+    // of one lies within about a spacing of a point of the other (a turned point of a solid of
+    // revolution lands between the other's points); where they differ, farther.
+    const float apart = std::max(verify.inlier_distance, 1.5f * disc_radius);
+    std::vector<std::uint8_t> seen(points.size()), self_hidden;
     // The rim probes, made when a hypothesis first passes every other test (in a scene without
     // the object, none does).
     std::optional<std::vector<Probe>> probes;
@@ -708,9 +712,7 @@ std::vector<Instance> refine_and_verify(std::vector<Instance> instances, std::sp
         // it: no evidence for or against it) is visible: only those are looked up for fitness.
         if (refine.enabled) place(instance.transform, points, scratch.placed);  // ICP moved it
         const std::vector<Point>& at = scratch.placed;
-        for (std::size_t i = 0; i < points.size(); ++i)
-            faces_sensor[i] = faces_camera(instance.transform, at[i], normals[i], verify.min_facing_cos);
-        hidden_by_model(at, normals, instance.transform, faces_sensor, disc_radius, occlusion, self_hidden);
+        seen_by_sensor(at, normals, instance.transform, verify.min_facing_cos, disc_radius, occlusion, self_hidden, seen);
         std::size_t facing = 0, visible = 0, inliers = 0, projected = 0, violations = 0;
         Spread facing_spread, inlier_spread;
         for (std::size_t i = 0; i < points.size(); ++i) {
@@ -718,8 +720,9 @@ std::vector<Instance> refine_and_verify(std::vector<Instance> instances, std::sp
             bool hidden = false;
             last_evidence[i] = 0;
             // What the sensor could see of the object were nothing else in front of it.
-            const bool faces = faces_sensor[i] && !self_hidden[i];
-            const bool edge_on = normals[i].allFinite() && !faces_sensor[i] &&
+            const bool faces = seen[i];
+            const bool edge_on = normals[i].allFinite() &&
+                                 !faces_camera(instance.transform, p, normals[i], verify.min_facing_cos) &&
                                  !faces_camera(instance.transform, p, -normals[i], verify.min_facing_cos);
             if (const std::size_t pixel = pixel_of(scene, p); pixel != no_pixel && std::isfinite(scene.depth[pixel])) {
                 hidden = scene.depth[pixel] < p.z() - verify.free_space_margin;
@@ -856,10 +859,6 @@ std::vector<Instance> refine_and_verify(std::vector<Instance> instances, std::sp
             kept_placed.swap(last_placed);
             kept_evidence.swap(last_evidence);
         };
-        // On the body two poses share, each point of one lies within about a spacing of a point
-        // of the other (a turned point of a solid of revolution lands between the other's points);
-        // where they differ, farther.
-        const float apart = std::max(verify.inlier_distance, 1.5f * disc_radius);
         if (verify.try_turns) {
             // Refined and tested from each of its confusable turns (model_turns), it keeps the pose
             // the scene supports best where the two differ (support_where_apart), then, where that

@@ -133,8 +133,9 @@ struct VerifyParams {
     /// A nearly symmetric object (a mug told apart by its handle, a square carton by its gable, a
     /// box by its proportions) is often posed a turn away from its truth, on the body the two
     /// poses share. An instance that passes, or that only its rim or free space refutes, is then
-    /// refined and tested again from its confusable turns (see turn_overlap) and keeps the pose
-    /// whose seen points explain the most depth pixels; one that passed but is not settled is also
+    /// refined and tested again from its confusable turns (see turn_overlap) and keeps the pose the
+    /// scene supports better where the poses differ (ties: the one whose seen points explain the
+    /// most depth pixels); one that passed but is not settled is also
     /// tried from quarter and half turns about the model's principal axes, and keeps the pose with
     /// the most model points fitting the scene (see refine_and_verify).
     bool try_turns = true;

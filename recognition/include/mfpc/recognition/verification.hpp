@@ -87,11 +87,13 @@ std::vector<std::uint8_t> model_points_in_view(std::span<const Point> points, st
 /// of the model's normals (through the point nearest their lines) under which at least
 /// VerifyParams::turn_overlap of the model, but not 98%, lands within inlier_distance of itself,
 /// in steps that move no point more than the ICP distance. Of the turns that pass (those that
-/// start with at least as many facing points near the scene), it keeps the pose whose seen points
-/// explain the most depth pixels (a scene pixel is explained within 1.5 point spacings of a seen
-/// point and inlier_distance of its tangent plane; without a depth image, the most model points
-/// fitting): what tells a mug's turns apart is its handle, which the fitting model points count
-/// against the pose that shows it. One that passed but is not settled is also tried from quarter,
+/// start with at least as many facing points near the scene), it keeps the pose the scene supports
+/// better where two poses differ: each model point counts +1 where it fits the scene, -1 where the
+/// sensor would see it and saw past it, summed over the points of each pose with no point of the
+/// other within the larger of inlier_distance and 1.5 point spacings (a mug's handle, not the body
+/// both share). On a tie (the part that differs hidden at both), the pose whose seen points explain
+/// the most depth pixels (a scene pixel is explained within 1.5 point spacings of a seen point and
+/// inlier_distance of its tangent plane; without a depth image, the most model points fitting). One that passed but is not settled is also tried from quarter,
 /// half and three-quarter turns about the model's principal axes, and keeps the pose with the most
 /// model points fitting the scene.
 ///
