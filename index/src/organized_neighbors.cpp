@@ -80,10 +80,19 @@ OrganizedNeighbors::OrganizedNeighbors(const PointCloud& cloud, const Camera& ca
     // it costs as much as the whole normal estimation of a foveated scene.
     stages_ = make_stages(window);
     // A nearest point is sought within a small radius (ICP's, an inlier's) of a point on or near
-    // the surface, usually a pixel or two away: 5 x 5 pixels settle 94% of the verification's
-    // queries on the shared scenes, 9 x 9 most of the rest (a miss needs the window's bound to
-    // pass the radius).
-    nearest_stages_ = make_stages(2);
+    // the surface, or of one well off it (a wrong pose's): the depth range of each tile lets that
+    // search pass over the tiles of pixels too far in depth to hold an answer.
+    tiles_x_ = (long(camera_.width) + tile_size - 1) / tile_size;
+    tiles_y_ = (long(camera_.height) + tile_size - 1) / tile_size;
+    tile_depths_.assign(std::size_t(tiles_x_ * tiles_y_), {std::numeric_limits<float>::infinity(),
+                                                          -std::numeric_limits<float>::infinity()});
+    for (long y = 0; y < long(camera_.height); ++y)
+        for (long x = 0; x < long(camera_.width); ++x)
+            if (const std::int32_t i = pixels_[std::size_t(y) * camera_.width + std::size_t(x)]; i >= 0) {
+                auto& [low_z, high_z] = tile_depths_[std::size_t((y / tile_size) * tiles_x_ + x / tile_size)];
+                low_z = std::min(low_z, points_[std::size_t(i)].z());
+                high_z = std::max(high_z, points_[std::size_t(i)].z());
+            }
 }
 
 OrganizedNeighbors::~OrganizedNeighbors() = default;
@@ -153,13 +162,41 @@ bool OrganizedNeighbors::inside(const Stage& stage, long u, long v) const
 
 double OrganizedNeighbors::outside_bound_squared(const Stage& stage, const Point& center) const
 {
+    return bound_squared(stage.slack, center);
+}
+
+double OrganizedNeighbors::bound_squared(double slack, const Point& center) const
+{
     // The squared distance from the query to the nearest of the planes x = (a ± δx) z and
-    // y = (b ± δy) z through the sensor; every point outside the window lies beyond one of them.
+    // y = (b ± δy) z through the sensor; every point projecting farther lies beyond one of them.
+    if (!(slack > 0.0)) return 0.0;
     const double z = center.z();
     const double a = std::abs(double(center.x()) / z), b = std::abs(double(center.y()) / z);
-    const double delta_x = stage.slack / camera_.fx, delta_y = stage.slack / camera_.fy;
+    const double delta_x = slack / camera_.fx, delta_y = slack / camera_.fy;
     return z * z * std::min(delta_x * delta_x / (1.0 + (a + delta_x) * (a + delta_x)),
                             delta_y * delta_y / (1.0 + (b + delta_y) * (b + delta_y)));
+}
+
+long OrganizedNeighbors::reach_beyond(double target, const Point& center, long cap) const
+{
+    // The bound grows with the slack toward z^2: s = delta^2 / (1 + (a + delta)^2) solved for the
+    // plane's angle delta on each axis gives the reach, then the bound itself confirms it (the
+    // closed form's rounding may be a pixel off either way).
+    const double z = center.z();
+    const double s = target / ((1.0 - bound_margin) * z * z);
+    if (!(s < 1.0)) return cap + 1;
+    auto reach_on = [&](double a, double focal) {
+        const double delta = (s * a + std::sqrt(s * s * a * a + (1.0 - s) * s * (1.0 + a * a))) / (1.0 - s);
+        return delta * focal - 0.5 + double(camera_.max_residual);
+    };
+    const double estimate = std::max(reach_on(std::abs(double(center.x()) / z), camera_.fx),
+                                     reach_on(std::abs(double(center.y()) / z), camera_.fy));
+    if (!(estimate < double(cap))) return cap + 1;
+    long reach = std::max(0L, long(std::floor(estimate)) - 1);
+    while (reach <= cap && !(target < bound_squared(double(reach) + 0.5 - double(camera_.max_residual), center) *
+                                          (1.0 - bound_margin)))
+        ++reach;
+    return reach;
 }
 
 OrganizedNeighbors::Stage OrganizedNeighbors::make_stage(int window, bool listed) const
@@ -358,16 +395,21 @@ void OrganizedNeighbors::nearest_batch(std::span<const Point> queries, float rad
 {
     if (indices.size() != queries.size() || squared_distances.size() != queries.size())
         throw Error("organized neighbours", "nearest_batch needs one output per query");
+    if (!fallback_) throw Error("organized neighbours", "searched after being moved from");
     std::fill(indices.begin(), indices.end(), no_point);
     if (!(radius >= 0.0f) || points_.empty() || queries.empty()) return;  // NeighborGrid::nearest finds nothing
 
     // A query that is not finite is near nothing (NeighborGrid::nearest says so too).
+    const float radius2 = radius * radius;
+    std::vector<std::uint8_t> settled(queries.size(), 0);
+    tbb::parallel_for(tbb::blocked_range<std::size_t>(0, queries.size(), 128), [&](const auto& range) {
+        for (std::size_t q = range.begin(); q < range.end(); ++q)
+            settled[q] = !queries[q].allFinite() ||
+                         nearest_in_image(queries[q], radius2, indices[q], squared_distances[q]);
+    });
     std::vector<std::uint32_t> open;
     for (std::size_t q = 0; q < queries.size(); ++q)
-        if (queries[q].allFinite()) open.push_back(std::uint32_t(q));
-    settle(nearest_stages_, queries.size(), open, [&](const Stage& stage, auto open_now, auto settled) {
-        nearest_window(stage, queries, open_now, radius, indices, squared_distances, settled);
-    });
+        if (!settled[q]) open.push_back(std::uint32_t(q));
     if (open.empty()) return;
     const NeighborGrid& grid = fallback();
     tbb::parallel_for(tbb::blocked_range<std::size_t>(0, open.size(), 128), [&](const auto& range) {
@@ -378,40 +420,83 @@ void OrganizedNeighbors::nearest_batch(std::span<const Point> queries, float rad
     });
 }
 
-void OrganizedNeighbors::nearest_window(const Stage& stage, std::span<const Point> queries,
-                                        std::span<const std::uint32_t> open, float radius,
-                                        std::span<std::uint32_t> indices, std::span<float> squared_distances,
-                                        std::span<std::uint8_t> settled) const
+bool OrganizedNeighbors::nearest_in_image(const Point& center, float radius2, std::uint32_t& index,
+                                          float& squared_distance) const
 {
-    const float radius2 = radius * radius;
-    tbb::parallel_for(tbb::blocked_range<std::size_t>(0, open.size(), 128), [&](const auto& range) {
-        for (std::size_t o = range.begin(); o < range.end(); ++o) {
-            const std::size_t q = open[o];
-            const Point& center = queries[q];
-            long u, v;
-            if (!pixel_of(center, u, v)) continue;
-            // The least (squared distance, index), packed as one integer.
-            std::uint64_t least = std::numeric_limits<std::uint64_t>::max();
-            visit_window(stage, u, v, [&](std::int32_t i) {
-                const float d2 = detail::squared_distance(points_[std::size_t(i)], center);
-                least = std::min(least, detail::candidate_key(d2, std::uint32_t(i)));
-            });
-            const float best = detail::candidate_of(least).first;
-            const bool found = least != std::numeric_limits<std::uint64_t>::max() && best < radius2;
-            // Settled when every point outside the window is farther than the window's nearest
-            // (strictly: a tie goes to the lower index, which may lie outside), or, for a miss, at
-            // least the radius away; with bound_margin.
-            if (!stage.whole) {
-                const double limit = outside_bound_squared(stage, center) * (1.0 - bound_margin);
-                if (!(found ? double(best) < limit : double(radius2) <= limit)) continue;
+    // Wider windows than this (a query a few centimetres from the sensor, or a radius near its
+    // depth) are the grid's: one costs up to (2 * 48 + 1)^2 pixels, a few hundred tiles.
+    constexpr long nearest_reach = 48;
+    if (!(center.z() > 0.0f)) return false;
+    const double x = camera_.fx * (double(center.x()) / center.z()) + camera_.cx;
+    const double y = camera_.fy * (double(center.y()) / center.z()) + camera_.cy;
+    // A query projecting off the image is settled too: the window about its pixel may reach into
+    // the image, or, lying wholly outside, show that nothing is near it. Farther off than any
+    // window reaches, it is the grid's (and lround never sees a value past a long).
+    const long width = long(camera_.width), height = long(camera_.height);
+    const double off = double(nearest_reach) + 1.0;
+    if (!(x > -off && y > -off && x < double(width) + off && y < double(height) + off)) return false;
+    const long u = std::lround(x), v = std::lround(y);
+
+    // The least (squared distance, index) so far, packed as one integer, and the squared distance
+    // a point must beat: the radius's, then the best's.
+    std::uint64_t least = std::numeric_limits<std::uint64_t>::max();
+    double target = radius2;
+    auto visit = [&](long x0, long x1, long y0, long y1) {
+        x0 = std::max(x0, 0L), y0 = std::max(y0, 0L);
+        x1 = std::min(x1, width - 1), y1 = std::min(y1, height - 1);
+        for (long py = y0; py <= y1; ++py) {
+            const std::int32_t* row = pixels_.data() + std::size_t(py) * camera_.width;
+            for (long px = x0; px <= x1; ++px) {
+                const std::int32_t i = row[px];
+                const float d2 = detail::squared_distance(points_[std::size_t(std::max(i, 0))], center);
+                least = std::min(least, i >= 0 ? detail::candidate_key(d2, std::uint32_t(i))
+                                               : std::numeric_limits<std::uint64_t>::max());
             }
-            if (found) {
-                indices[q] = std::uint32_t(least);
-                squared_distances[q] = best;
-            }
-            settled[q] = 1;
         }
-    });
+        const float best = detail::candidate_of(least).first;
+        if (least != std::numeric_limits<std::uint64_t>::max() && best < radius2) target = std::min(target, double(best));
+    };
+    // The pixels about the projection first: a query on the surface has its answer there, and the
+    // reach that answer needs is then a pixel or two.
+    visit(u - 1, u + 1, v - 1, v + 1);
+    long reach = reach_beyond(target, center, nearest_reach);
+    if (reach > nearest_reach) return false;
+    if (reach > 1) {
+        // Then the tiles about the query's, ring after ring, each tile's pixels within the reach; a
+        // tile whose depths all lie farther from the query's than the target is passed over (a
+        // point is at least its depth's difference away). The reach shrinks as the best improves.
+        auto floor_div = [](long a) { return a >= 0 ? a / tile_size : -((-a + tile_size - 1) / tile_size); };
+        const long tile_u = floor_div(u), tile_v = floor_div(v);
+        const double z = center.z();
+        for (long ring = 0;; ++ring) {
+            const long x_low = floor_div(std::max(u - reach, 0L)), x_high = floor_div(std::min(u + reach, width - 1));
+            const long y_low = floor_div(std::max(v - reach, 0L)), y_high = floor_div(std::min(v + reach, height - 1));
+            if (u + reach < 0 || v + reach < 0 || u - reach >= width || v - reach >= height) break;  // off the image
+            if (ring > 0 && x_low >= tile_u - ring + 1 && x_high <= tile_u + ring - 1 && y_low >= tile_v - ring + 1 &&
+                y_high <= tile_v + ring - 1)
+                break;  // every tile within the reach visited
+            for (long ty = std::max(tile_v - ring, y_low); ty <= std::min(tile_v + ring, y_high); ++ty) {
+                const bool edge_row = ty == tile_v - ring || ty == tile_v + ring;
+                const long step = edge_row || ring == 0 ? 1 : 2 * ring;
+                for (long tx = tile_u - ring; tx <= tile_u + ring; tx += step) {
+                    if (tx < x_low || tx > x_high) continue;
+                    const auto [low_z, high_z] = tile_depths_[std::size_t(ty * tiles_x_ + tx)];
+                    const double dz = std::max({0.0, double(low_z) - z, z - double(high_z)});
+                    if (dz * dz > target * (1.0 + bound_margin)) continue;
+                    const double before = target;
+                    visit(std::max(tx * tile_size, u - reach), std::min(tx * tile_size + tile_size - 1, u + reach),
+                          std::max(ty * tile_size, v - reach), std::min(ty * tile_size + tile_size - 1, v + reach));
+                    if (target < before) reach = std::min(reach, reach_beyond(target, center, nearest_reach));
+                }
+            }
+        }
+    }
+    const float best = detail::candidate_of(least).first;
+    if (least != std::numeric_limits<std::uint64_t>::max() && best < radius2) {
+        index = std::uint32_t(least);
+        squared_distance = best;
+    }
+    return true;
 }
 
 }  // namespace mfpc

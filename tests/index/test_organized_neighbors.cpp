@@ -274,6 +274,53 @@ TEST(OrganizedNeighbors, WideWindowsSettleWithoutTheGrid)
     }
 }
 
+// What verification asks of a wrong pose: model points in front of or behind the surface by more
+// than the radius (the tiles about them all too far in depth), and points just past the image's
+// edges (a hypothesis cut by the frame). The image settles them all, with the grid's answers.
+TEST(OrganizedNeighbors, QueriesOffTheSurfaceOrOffTheImageSettleWithoutTheGrid)
+{
+    const PointCloud view = synthetic_view(160, 120, 11);
+    const auto camera = fit_camera(view);
+    ASSERT_TRUE(camera.has_value());
+    const NeighborGrid grid(view.points, 0.02f);
+    const OrganizedNeighbors organized(view, *camera, 3, 0.02f);
+    std::vector<Point> queries;
+    for (std::size_t i = 0; i < view.size(); i += 5)
+        for (float depth : {-0.03f, -0.012f, -0.004f, 0.004f, 0.012f, 0.03f})
+            queries.push_back(view.points[i] * (1.0f + depth / view.points[i].z()));
+    for (std::size_t i = 0; i < view.size(); ++i) {
+        const std::uint32_t pixel = view.source_index[i], u = pixel % view.width, v = pixel / view.width;
+        if (u != 0 && v != 0 && u + 1 != view.width && v + 1 != view.height) continue;
+        // 1 to 12 pixels past the edge, outward from the image's centre.
+        const Point& p = view.points[i];
+        for (float pixels : {1.0f, 3.0f, 12.0f}) {
+            const float step = pixels * p.z() / 525.0f;
+            queries.emplace_back(p.x() + (u == 0 ? -step : u + 1 == view.width ? step : 0.0f),
+                                 p.y() + (v == 0 ? -step : v + 1 == view.height ? step : 0.0f), p.z());
+        }
+    }
+    std::size_t found = 0, missed = 0;
+    for (float radius : {0.005f, 0.01f, 0.02f}) {
+        std::vector<std::uint32_t> in_image(queries.size());
+        std::vector<float> image_distances(queries.size());
+        organized.nearest_batch(queries, radius, in_image, image_distances);
+        for (std::size_t q = 0; q < queries.size(); ++q) {
+            std::uint32_t index = 0;
+            float distance = 0.0f;
+            const bool in_grid = grid.nearest(queries[q], radius, index, distance);
+            ASSERT_EQ(in_grid, in_image[q] != OrganizedNeighbors::no_point) << radius << " " << queries[q].transpose();
+            found += in_grid;
+            missed += !in_grid;
+            if (!in_grid) continue;
+            ASSERT_EQ(index, in_image[q]);
+            ASSERT_EQ(distance, image_distances[q]);
+        }
+    }
+    EXPECT_GT(found, queries.size() / 2);
+    EXPECT_GT(missed, queries.size() / 2);
+    EXPECT_FALSE(organized.built_fallback());
+}
+
 TEST(OrganizedNeighbors, RefusesAnUnorganizedCloudAndBadArguments)
 {
     const PointCloud cloud = synthetic_view(40, 30, 1);

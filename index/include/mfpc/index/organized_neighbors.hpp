@@ -27,7 +27,10 @@ namespace mfpc {
 /// one of four planes through the sensor, whose distance from the query bounds it (the camera's fit
 /// residual is taken off the window). Queries the bound cannot settle try windows twice as wide,
 /// within a budget of a few pixels per cloud point for a search; the rest go to a NeighborGrid over
-/// the cloud, built on first need. The results are NeighborGrid's, bit for bit.
+/// the cloud, built on first need. A nearest-within-a-radius query reads the pixels about its
+/// projection (off the image too), then tiles of 8 x 8 pixels ring after ring, as far as the radius
+/// or the best so far needs, passing over the tiles whose depths all lie too far from the query's.
+/// The results are NeighborGrid's, bit for bit.
 class OrganizedNeighbors {
 public:
     /// @brief Prepares the search over an organized cloud. The cloud's points are referred to, not
@@ -127,10 +130,19 @@ private:
     void search_window(const Stage& stage, std::span<const Point> queries, std::span<const std::uint32_t> open,
                        std::size_t want, std::span<std::uint32_t> indices, std::span<float> squared_distances,
                        std::span<std::uint8_t> settled) const;
-    // The same for the nearest point within `radius`.
-    void nearest_window(const Stage& stage, std::span<const Point> queries, std::span<const std::uint32_t> open,
-                        float radius, std::span<std::uint32_t> indices, std::span<float> squared_distances,
-                        std::span<std::uint8_t> settled) const;
+    // The squared distance from a query to the nearest of the four planes through the sensor that
+    // pass `slack` pixels either side of its projection: a lower bound for any point projecting
+    // farther than that (outside_bound_squared's, for any slack).
+    double bound_squared(double slack, const Point& center) const;
+    // The least window reach (pixels about the query's pixel) whose outside lies farther than
+    // `target` (squared, with bound_margin); a reach past `cap` (or none: the target is beyond
+    // every plane) gives cap + 1.
+    long reach_beyond(double target, const Point& center, long cap) const;
+    // The nearest point to `center` with squared distance < radius2, from the depth image alone:
+    // the pixels about its projection, in widening rings of tiles, those too far in depth skipped
+    // (tile_depths_). False when the image cannot settle it (behind the sensor, or a window wider
+    // than nearest_reach needed): the fallback grid's then.
+    bool nearest_in_image(const Point& center, float radius2, std::uint32_t& index, float& squared_distance) const;
     // Whether a stage is worth running for `open` queries rather than going to the grid, within
     // what is left of a search's budget of window pixels (taken from it when so).
     bool affordable(const Stage& stage, std::size_t open, std::size_t& budget) const;
@@ -142,7 +154,12 @@ private:
     float fallback_cell_;
     std::vector<std::int32_t> pixels_;   // point index per pixel, -1 where no return
     std::vector<Stage> stages_;          // k-nearest's windows
-    std::vector<Stage> nearest_stages_;  // nearest's windows
+    // Each tile of tile_size x tile_size pixels' least and greatest point depth (an empty tile's:
+    // +inf, -inf), row by row of tiles_x_: a point is at least its depth's difference from a query
+    // away, so most tiles about a point off the surface hold nothing near it.
+    static constexpr long tile_size = 8;
+    long tiles_x_ = 0, tiles_y_ = 0;
+    std::vector<std::pair<float, float>> tile_depths_;
     struct Fallback;
     std::unique_ptr<Fallback> fallback_;
 };
