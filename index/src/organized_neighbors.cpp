@@ -180,8 +180,8 @@ double OrganizedNeighbors::bound_squared(double slack, const Point& center) cons
 long OrganizedNeighbors::reach_beyond(double target, const Point& center, long cap) const
 {
     // The bound grows with the slack toward z^2: s = delta^2 / (1 + (a + delta)^2) solved for the
-    // plane's angle delta on each axis gives the reach, then the bound itself confirms it (the
-    // closed form's rounding may be a pixel off either way).
+    // plane's angle delta on each axis gives the reach, then the bound itself confirms it (should
+    // the closed form's rounding fall short, a pixel more).
     const double z = center.z();
     const double s = target / ((1.0 - bound_margin) * z * z);
     if (!(s < 1.0)) return cap + 1;
@@ -192,7 +192,7 @@ long OrganizedNeighbors::reach_beyond(double target, const Point& center, long c
     const double estimate = std::max(reach_on(std::abs(double(center.x()) / z), camera_.fx),
                                      reach_on(std::abs(double(center.y()) / z), camera_.fy));
     if (!(estimate < double(cap))) return cap + 1;
-    long reach = std::max(0L, long(std::floor(estimate)) - 1);
+    long reach = std::max(0L, long(std::ceil(estimate)));
     while (reach <= cap && !(target < bound_squared(double(reach) + 0.5 - double(camera_.max_residual), center) *
                                           (1.0 - bound_margin)))
         ++reach;
@@ -459,7 +459,10 @@ bool OrganizedNeighbors::nearest_in_image(const Point& center, float radius2, st
     // The pixels about the projection first: a query on the surface has its answer there, and the
     // reach that answer needs is then a pixel or two.
     visit(u - 1, u + 1, v - 1, v + 1);
-    long reach = reach_beyond(target, center, nearest_reach);
+    const double slack = 0.5 - double(camera_.max_residual);
+    long reach = target < bound_squared(1.0 + slack, center) * (1.0 - bound_margin)
+                     ? 1
+                     : reach_beyond(target, center, nearest_reach);
     if (reach > nearest_reach) return false;
     if (reach > 1) {
         // Then the tiles about the query's, ring after ring, each tile's pixels within the reach; a
