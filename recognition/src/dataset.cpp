@@ -386,6 +386,7 @@ DatasetReport evaluate_dataset(const Dataset& dataset, const RecognitionParams& 
         const auto start = Clock::now();
         try {
             models[name] = load_model(it->file, params.model, check_cache_params, params_source);
+            prepare_model_verification(*models[name], params);
             outcome.keypoints = models[name]->features.size();
             outcome.params = models[name]->params;
         } catch (const std::exception& error) {

@@ -16,6 +16,7 @@
 #include "mfpc/kernels/normals.hpp"
 #include "mfpc/kernels/shot.hpp"
 #include "mfpc/kernels/uniform_sampling.hpp"
+#include "mfpc/recognition/verification.hpp"
 
 namespace mfpc {
 namespace {
@@ -101,6 +102,11 @@ Point model_centroid(const Model& model)
     Eigen::Vector3d sum = Eigen::Vector3d::Zero();
     for (const Point& p : model.points) sum += p.cast<double>();
     return (sum / double(model.points.size())).cast<float>();
+}
+
+void prepare_model_verification(Model& model, const RecognitionParams& params)
+{
+    model.verification = prepare_verification(model.points, model.normals, params.refine, params.verify);
 }
 
 Model prepare_model(const PointCloud& input, const FeatureParams& params, const std::string& source,

@@ -179,8 +179,12 @@ RecognitionResult recognize_described(const DescribedScene& described, const Mod
 
     if (described.evidence) {
         t = Clock::now();
+        const ModelVerification* prepared = model.verification && prepared_for(*model.verification, params.refine,
+                                                                                params.verify)
+                                                ? model.verification.get()
+                                                : nullptr;
         result.instances = refine_and_verify(std::move(result.instances), model.points, model.normals,
-                                             *described.evidence, params.refine, params.verify);
+                                             *described.evidence, params.refine, params.verify, prepared);
         result.timings.verify = elapsed_ms(t);
     }
     result.timings.total = elapsed_ms(start);

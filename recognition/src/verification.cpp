@@ -576,8 +576,86 @@ bool rim_refutes(std::size_t continued, std::size_t settled, const VerifyParams&
     return (centre - spread) / (1 + z * z / n) > verify.max_continuation;
 }
 
-
 }  // namespace
+
+struct ModelVerification {
+    RefineParams refine;  // the parameters it was made for
+    VerifyParams verify;
+    std::size_t model_size = 0;          // the model's points, before thinning
+    std::vector<Point> points, normals;  // the thinned model: ICP and the fit statistics need its shape, not every point
+    // Self-occlusion: each thinned point stands for a disc whose radius is their mean spacing.
+    float disc_radius = 0.0f;
+    std::vector<Pose> quarter_turns;  // quarter and half turns about the principal axes (try_turns)
+    // The confusable turns (model_turns) and the rim probes, each made when a hypothesis first needs
+    // it when the preparation is refine_and_verify's own (in a scene without the object, none does).
+    std::optional<std::vector<Pose>> confusable;
+    std::optional<std::vector<Probe>> probes;
+
+    ModelVerification(std::span<const Point> model_points, std::span<const Point> model_normals,
+                      const RefineParams& refine_params, const VerifyParams& verify_params);
+    const std::vector<Pose>& turns(std::span<const Point> model_points)
+    {
+        if (!confusable)
+            confusable = model_turns(points, normals, model_points, verify.inlier_distance, verify.turn_overlap,
+                                     refine.max_distance);
+        return *confusable;
+    }
+    const std::vector<Probe>& rim(std::span<const Point> model_points)
+    {
+        if (!probes) probes = rim_probes(points, normals, model_points, verify.rim_distance);
+        return *probes;
+    }
+};
+
+ModelVerification::ModelVerification(std::span<const Point> model_points, std::span<const Point> model_normals,
+                                     const RefineParams& refine_params, const VerifyParams& verify_params)
+    : refine(refine_params), verify(verify_params), model_size(model_points.size())
+{
+    if (model_normals.size() != model_points.size())
+        throw Error("refine_and_verify", "the model has " + std::to_string(model_normals.size()) + " normals for " +
+                                             std::to_string(model_points.size()) + " points");
+    std::vector<std::uint32_t> kept;
+    if (refine.model_voxel > 0.0f) kept = uniform_sampling(model_points, refine.model_voxel);
+    else
+        for (std::uint32_t i = 0; i < model_points.size(); ++i) kept.push_back(i);
+    for (std::uint32_t i : kept) {
+        points.push_back(model_points[i]);
+        normals.push_back(model_normals[i]);
+    }
+    disc_radius = points.size() >= 2 ? float(mean_spacing(points)) : 0.0f;
+    // Quarter and half turns about the model's principal axes through its centroid: the poses a
+    // nearly symmetric object is mistaken for.
+    if (verify.try_turns && points.size() >= 3) {
+        Spread spread;
+        for (const Point& p : points) spread.add(p);
+        const Eigen::Vector3d centre = spread.mean();
+        const Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> axes(spread.covariance());
+        for (int axis = 2; axis >= 0; --axis)
+            for (const double quarter : {1.0, 2.0, 3.0}) {
+                Pose turn = Pose::Identity();
+                turn.linear() = Eigen::AngleAxisd(quarter * M_PI / 2.0, axes.eigenvectors().col(axis)).toRotationMatrix().cast<float>();
+                turn.translation() = (centre - turn.linear().cast<double>() * centre).cast<float>();
+                quarter_turns.push_back(turn);
+            }
+    }
+}
+
+std::shared_ptr<const ModelVerification> prepare_verification(std::span<const Point> model_points,
+                                                              std::span<const Point> model_normals,
+                                                              const RefineParams& refine, const VerifyParams& verify)
+{
+    auto prepared = std::make_shared<ModelVerification>(model_points, model_normals, refine, verify);
+    if (verify.enabled) {
+        prepared->rim(model_points);
+        if (verify.try_turns) prepared->turns(model_points);
+    }
+    return prepared;
+}
+
+bool prepared_for(const ModelVerification& prepared, const RefineParams& refine, const VerifyParams& verify)
+{
+    return prepared.refine == refine && prepared.verify == verify;
+}
 
 SceneEvidence make_scene_evidence(const PointCloud& scene, const NeighborGrid& grid, std::optional<Camera> camera)
 {
@@ -617,24 +695,27 @@ std::vector<std::uint8_t> model_points_in_view(std::span<const Point> points, st
 
 std::vector<Instance> refine_and_verify(std::vector<Instance> instances, std::span<const Point> model_points,
                                         std::span<const Point> model_normals, const SceneEvidence& scene,
-                                        const RefineParams& refine, const VerifyParams& verify)
+                                        const RefineParams& refine, const VerifyParams& verify,
+                                        const ModelVerification* prepared)
 {
     if (!refine.enabled && !verify.enabled) return instances;
     if (model_normals.size() != model_points.size())
         throw Error("refine_and_verify", "the model has " + std::to_string(model_normals.size()) + " normals for " +
                                              std::to_string(model_points.size()) + " points");
     if (scene.grid == nullptr && scene.organized == nullptr) throw Error("refine_and_verify", "no scene index");
+    if (prepared && (!prepared_for(*prepared, refine, verify) || prepared->model_size != model_points.size()))
+        throw Error("refine_and_verify", "the model's verification was prepared for other parameters or another model");
 
-    // Thin the model once: ICP and the fit statistics need its shape, not every point.
-    std::vector<std::uint32_t> kept;
-    if (refine.model_voxel > 0.0f) kept = uniform_sampling(model_points, refine.model_voxel);
-    else
-        for (std::uint32_t i = 0; i < model_points.size(); ++i) kept.push_back(i);
-    std::vector<Point> points, normals;
-    for (std::uint32_t i : kept) {
-        points.push_back(model_points[i]);
-        normals.push_back(model_normals[i]);
-    }
+    // Without a preparation, one of this call's own, whose turns and probes wait until a
+    // hypothesis needs them. A caller's preparation is shared (by the threads of a batch): it is
+    // complete, and only read.
+    std::optional<ModelVerification> own;
+    if (!prepared) own.emplace(model_points, model_normals, refine, verify);
+    const ModelVerification& model = prepared ? *prepared : *own;
+    auto turns = [&]() -> const std::vector<Pose>& { return own ? own->turns(model_points) : *prepared->confusable; };
+    auto rim = [&]() -> const std::vector<Probe>& { return own ? own->rim(model_points) : *prepared->probes; };
+    const std::vector<Point>& points = model.points;
+    const std::vector<Point>& normals = model.normals;
 
     // Hypotheses in the order given (grouping's: most votes first), each against those accepted
     // before it. One that starts on the place of a settled instance (one that explains nearly all
@@ -652,8 +733,7 @@ std::vector<Instance> refine_and_verify(std::vector<Instance> instances, std::sp
     std::vector<std::uint8_t> settled;  // per claim
     bool any_settled = false;
     Scratch scratch(points.size());
-    // Self-occlusion: each thinned point stands for a disc whose radius is their mean spacing.
-    const float disc_radius = points.size() >= 2 ? float(mean_spacing(points)) : 0.0f;
+    const float disc_radius = model.disc_radius;
     SelfOcclusion occlusion;
     const IcpView view{normals, verify.min_facing_cos, disc_radius};
     // Where two poses of one object differ (support_where_apart): on the body they share, each point
@@ -661,9 +741,7 @@ std::vector<Instance> refine_and_verify(std::vector<Instance> instances, std::sp
     // revolution lands between the other's points); where they differ, farther.
     const float apart = std::max(verify.inlier_distance, 1.5f * disc_radius);
     std::vector<std::uint8_t> seen(points.size()), self_hidden;
-    // The rim probes, made when a hypothesis first passes every other test (in a scene without
-    // the object, none does).
-    std::optional<std::vector<Probe>> probes;
+    // The rim probes' scratch, made when a hypothesis first passes every other test.
     std::optional<Scratch> probe_scratch;
     // The model points facing the sensor at a pose, and those of them with a scene point within
     // the ICP distance: near_placed reads the model already placed at the pose in scratch.placed,
@@ -764,36 +842,17 @@ std::vector<Instance> refine_and_verify(std::vector<Instance> instances, std::sp
             instance.free_space_violation > verify.max_free_space_fraction ||
             instance.thickness_ratio < verify.min_thickness_ratio)
             return std::nullopt;
-        if (!probes) {
-            probes = rim_probes(points, normals, model_points, verify.rim_distance);
-            probe_scratch.emplace(probes->size());
-        }
-        const RimEvidence rim = rim_evidence(instance.transform, *probes, scratch.nearest, scene, verify, *probe_scratch);
-        const std::size_t rim_settled = rim.continued + rim.free;
-        instance.continuation = rim_settled ? float(rim.continued) / float(rim_settled) : 0.0f;
-        if (rim_refutes(rim.continued, rim_settled, verify)) return std::nullopt;
+        const std::vector<Probe>& probes = rim();
+        if (!probe_scratch) probe_scratch.emplace(probes.size());
+        const RimEvidence ends = rim_evidence(instance.transform, probes, scratch.nearest, scene, verify, *probe_scratch);
+        const std::size_t rim_settled = ends.continued + ends.free;
+        instance.continuation = rim_settled ? float(ends.continued) / float(rim_settled) : 0.0f;
+        if (rim_refutes(ends.continued, rim_settled, verify)) return std::nullopt;
         last_pose = instance.transform;
         last_inliers = inliers;
         return inliers;
     };
-    // Quarter and half turns about the model's principal axes through its centroid: the poses a
-    // nearly symmetric object is mistaken for.
-    std::vector<Pose> quarter_turns;
-    if (verify.try_turns && points.size() >= 3) {
-        Spread spread;
-        for (const Point& p : points) spread.add(p);
-        const Eigen::Vector3d centre = spread.mean();
-        const Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> axes(spread.covariance());
-        for (int axis = 2; axis >= 0; --axis)
-            for (const double quarter : {1.0, 2.0, 3.0}) {
-                Pose turn = Pose::Identity();
-                turn.linear() = Eigen::AngleAxisd(quarter * M_PI / 2.0, axes.eigenvectors().col(axis)).toRotationMatrix().cast<float>();
-                turn.translation() = (centre - turn.linear().cast<double>() * centre).cast<float>();
-                quarter_turns.push_back(turn);
-            }
-    }
-    // The turns the model nearly covers itself under, found when a hypothesis first needs them.
-    std::optional<std::vector<Pose>> confusable;
+    const std::vector<Pose>& quarter_turns = model.quarter_turns;
     // The depth pixels that the seen points of the pose refine_and_test just placed and tested
     // explain (explained_pixels, each point's disc a little wider than their spacing so that the
     // discs cover the surface between them); without a depth image, its fitting model points.
@@ -865,12 +924,9 @@ std::vector<Instance> refine_and_verify(std::vector<Instance> instances, std::sp
             // says nothing either way (the part that tells them apart hidden at both), the pose
             // that explains the most scene pixels: the fitting model points would count a visible
             // handle against the pose that shows it.
-            if (!confusable)
-                confusable = model_turns(points, normals, model_points, verify.inlier_distance, verify.turn_overlap,
-                                         refine.max_distance);
             std::size_t explains = passed ? explained() : 0;
             const std::size_t near = near_count(instance.transform).near;
-            for (const Pose& turn : *confusable)
+            for (const Pose& turn : turns())
                 if (std::optional<Instance> twin = try_turn(turn, near)) {
                     const std::size_t more = explained();
                     const long margin = passed ? support_where_apart(last_placed, last_evidence, kept_placed, apart) -

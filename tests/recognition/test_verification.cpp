@@ -116,6 +116,51 @@ TEST(RefineAndVerify, KeepsEachObjectOnceAndRejectsEmptySpace)
     EXPECT_EQ(refine_and_verify(hypotheses, model.points, model.normals, evidence, RefineParams{}, no_merge).size(), 4u);
 }
 
+// The model's verification prepared once gives the same bits as the one each call makes, and is
+// refused for parameters or a model it was not made for.
+TEST(RefineAndVerify, APreparedModelVerificationGivesTheSameInstances)
+{
+    const Box model = box_model();
+    const Pose truth = pose_at({0.0f, 0.0f, 0.8f}, 25.0f);
+    PointCloud scene;
+    for (const Point& p : model.points) scene.points.push_back(truth * p);
+    scene.width = std::uint32_t(scene.points.size());
+    const NeighborGrid grid(scene.points, 0.005f);
+    const SceneEvidence evidence = make_scene_evidence(scene, grid, std::nullopt);
+    // Off by a few millimetres, a quarter turn (which the prepared turns must retry), and nowhere.
+    const std::vector<Instance> hypotheses = {
+        hypothesis(truth * pose_at({0.002f, -0.001f, 0.001f}, 2.0f), 30.0f),
+        hypothesis(truth * pose_at({0.0f, 0.0f, 0.0f}, 90.0f), 20.0f),
+        hypothesis(pose_at({0.3f, 0.2f, 1.2f}), 10.0f),
+    };
+    VerifyParams no_merge;
+    no_merge.merge = false;  // every hypothesis verified, so that each result is compared
+    const std::vector<Instance> made = refine_and_verify(hypotheses, model.points, model.normals, evidence,
+                                                         RefineParams{}, no_merge);
+    const std::shared_ptr<const ModelVerification> prepared =
+        prepare_verification(model.points, model.normals, RefineParams{}, no_merge);
+    EXPECT_TRUE(prepared_for(*prepared, RefineParams{}, no_merge));
+    const std::vector<Instance> reused = refine_and_verify(hypotheses, model.points, model.normals, evidence,
+                                                           RefineParams{}, no_merge, prepared.get());
+    ASSERT_FALSE(made.empty());
+    ASSERT_EQ(reused.size(), made.size());
+    for (std::size_t i = 0; i < made.size(); ++i) {
+        EXPECT_TRUE(reused[i].transform.matrix() == made[i].transform.matrix()) << i;
+        EXPECT_EQ(reused[i].fitness, made[i].fitness) << i;
+        EXPECT_EQ(reused[i].continuation, made[i].continuation) << i;
+    }
+
+    EXPECT_FALSE(prepared_for(*prepared, RefineParams{}, VerifyParams{}));
+    EXPECT_THROW(refine_and_verify(hypotheses, model.points, model.normals, evidence, RefineParams{}, VerifyParams{},
+                                   prepared.get()),
+                 Error);
+    const std::span<const Point> fewer = std::span(model.points).first(model.points.size() - 1);
+    const std::span<const Point> fewer_normals = std::span(model.normals).first(fewer.size());
+    EXPECT_THROW(refine_and_verify(hypotheses, fewer, fewer_normals, evidence, RefineParams{}, no_merge, prepared.get()),
+                 Error);
+    EXPECT_THROW(prepare_verification(model.points, fewer_normals, RefineParams{}, no_merge), Error);
+}
+
 // A poor fit with the most votes must not hide the true pose of its object: a box slid 12 mm along
 // its long side (not refined, so it stays there) still explains most of the box and is accepted,
 // but not settled, so the true pose behind it is still verified, and wins the merge.

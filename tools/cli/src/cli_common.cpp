@@ -84,6 +84,7 @@ std::vector<BatchModel> load_batch_models(const std::vector<std::string>& files,
     for (const std::string& file : files) {
         BatchModel model{std::filesystem::path(file).stem().string(),
                          load_model(file, params.model, !params_file.empty(), params_file)};
+        prepare_model_verification(model.model, params);
         for (const BatchModel& other : models)
             if (other.name == model.name)
                 throw CLI::ValidationError("--model", "two models named '" + model.name +

@@ -36,7 +36,8 @@ void run_experiment_command(const ExperimentOptions& options, const GlobalOption
 
     Stopwatch clock;
     report.model_cached = is_model_cache(config.model);
-    const Model model = load_model(config.model, config.params.model, true, options.config);
+    Model model = load_model(config.model, config.params.model, true, options.config);
+    prepare_model_verification(model, config.params);
     report.model_ms = clock.lap_ms();
     const PointCloud scene = read_cloud(config.scene);
     const GroundTruth truth = read_ground_truth(config.ground_truth);

@@ -82,6 +82,7 @@ void run_recognize(const RecognizeOptions& options, const GlobalOptions& global)
         // Without --params a cache brings its own model parameters.
         models.push_back(load_model(report.model_file, params.model, !options.params.empty(), options.params,
                                     &report.model_timings));
+        prepare_model_verification(models.back(), params);
         report.model_ms = clock.lap_ms();
         // With several models the ground truth scores the one it was written for.
         const std::string model_file = report.model_cached ? models.back().source : report.model_file;

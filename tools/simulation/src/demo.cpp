@@ -53,6 +53,7 @@ DemoRun run_demo(const DemoParams& params, const std::filesystem::path& director
     const RecognitionParams recognition;
     run.dataset = make_synthetic_dataset(builtin_scene_shapes(params.object), compose, SensorParams{}, model_spacing,
                                          recognition.model);
+    prepare_model_verification(run.dataset.model, recognition);
     write_synthetic_dataset(directory, run.dataset);
     run.synthesize_ms = elapsed_ms(start);
 

@@ -77,6 +77,7 @@ struct RefineParams {
     int iterations = 20;            ///< ICP iterations.
     float max_distance = 0.01f;     ///< Pairs farther than this are ignored (metres).
     float model_voxel = 0.008f;     ///< The model is thinned to one point per voxel first (0: not).
+    friend bool operator==(const RefineParams&, const RefineParams&) = default;
 };
 
 /// @brief Verification of the instances against the scene, and the merging of duplicates (see
@@ -149,6 +150,7 @@ struct VerifyParams {
     bool merge = true;                   ///< Merge instances whose placed models overlap: ...
     float merge_distance = 0.01f;        ///< ... points closer than this (metres) overlap, ...
     float merge_overlap = 0.2f;          ///< ... and this fraction of overlapping points merges.
+    friend bool operator==(const VerifyParams&, const VerifyParams&) = default;
 };
 
 /// @brief All the parameters of recognize().

@@ -4,6 +4,7 @@
 /// @brief Hypothesis refinement (ICP) and verification against the scene: fitness, coverage,
 /// thickness, free space and continuation.
 
+#include <memory>
 #include <optional>
 #include <span>
 #include <vector>
@@ -60,6 +61,30 @@ SceneEvidence make_scene_evidence(const PointCloud& scene, const OrganizedNeighb
 std::vector<std::uint8_t> model_points_in_view(std::span<const Point> points, std::span<const Point> normals,
                                                const Pose& pose, float min_facing_cos, float spacing);
 
+/// @brief What refine_and_verify needs of a model whatever the scene, for one set of refinement and
+/// verification parameters: the thinned model, its point spacing, its confusable and quarter turns
+/// and its rim probes. Made once per model (prepare_verification) rather than once per scene: on a
+/// Kinect scene they cost about as much as the verification of the scene's hypotheses.
+struct ModelVerification;
+
+/// @brief Prepares a model's verification for these parameters (see ModelVerification).
+/// @param model_points The model cloud.
+/// @param model_normals The model cloud's normals, one per point.
+/// @param refine The refinement parameters it is for.
+/// @param verify The verification parameters it is for.
+/// @return The preparation, for refine_and_verify with this model and these parameters.
+/// @throws mfpc::Error when the model's normals are not one per point.
+std::shared_ptr<const ModelVerification> prepare_verification(std::span<const Point> model_points,
+                                                              std::span<const Point> model_normals,
+                                                              const RefineParams& refine, const VerifyParams& verify);
+/// @brief Whether a preparation was made for these parameters (refine_and_verify refuses it
+/// otherwise).
+/// @param prepared The preparation.
+/// @param refine The refinement parameters of the run.
+/// @param verify The verification parameters of the run.
+/// @return Whether both are those it was made for.
+bool prepared_for(const ModelVerification& prepared, const RefineParams& refine, const VerifyParams& verify);
+
 /// @brief Refines each instance by ICP, then keeps those the scene supports.
 ///
 /// ICP (point to point, Umeyama per iteration) of each instance's model onto the scene, starting
@@ -109,12 +134,15 @@ std::vector<std::uint8_t> model_points_in_view(std::span<const Point> points, st
 /// @param scene The scene's evidence.
 /// @param refine The ICP parameters; refine.enabled says whether ICP runs.
 /// @param verify The limits and the merging of duplicates; verify.enabled says whether they apply.
+/// @param prepared The model's verification prepared for `refine` and `verify` (prepare_verification),
+/// or null to make what is needed of it here. The result is the same.
 /// @return The refined instances that pass the limits, with their scores; `instances` unchanged
 /// when both refinement and verification are disabled.
-/// @throws mfpc::Error when the model's normals are not one per point, or the evidence has no
-/// scene index.
+/// @throws mfpc::Error when the model's normals are not one per point, the evidence has no scene
+/// index, or `prepared` was made for other parameters or another number of model points.
 std::vector<Instance> refine_and_verify(std::vector<Instance> instances, std::span<const Point> model_points,
                                         std::span<const Point> model_normals, const SceneEvidence& scene,
-                                        const RefineParams& refine, const VerifyParams& verify);
+                                        const RefineParams& refine, const VerifyParams& verify,
+                                        const ModelVerification* prepared = nullptr);
 
 }  // namespace mfpc
