@@ -467,11 +467,13 @@ bool OrganizedNeighbors::nearest_in_image(const Point& center, float radius2, st
     if (reach > 1) {
         // Then the tiles about the query's, ring after ring, each tile's pixels within the reach; a
         // tile whose depths all lie farther from the query's than the target is passed over (a
-        // point is at least its depth's difference away). The reach shrinks as the best improves.
+        // point is at least its depth's difference away). The reach shrinks as the best improves,
+        // ring by ring.
         auto floor_div = [](long a) { return a >= 0 ? a / tile_size : -((-a + tile_size - 1) / tile_size); };
         const long tile_u = floor_div(u), tile_v = floor_div(v);
         const double z = center.z();
         for (long ring = 0;; ++ring) {
+            const double ring_target = target;
             const long x_low = floor_div(std::max(u - reach, 0L)), x_high = floor_div(std::min(u + reach, width - 1));
             const long y_low = floor_div(std::max(v - reach, 0L)), y_high = floor_div(std::min(v + reach, height - 1));
             if (u + reach < 0 || v + reach < 0 || u - reach >= width || v - reach >= height) break;  // off the image
@@ -486,12 +488,11 @@ bool OrganizedNeighbors::nearest_in_image(const Point& center, float radius2, st
                     const auto [low_z, high_z] = tile_depths_[std::size_t(ty * tiles_x_ + tx)];
                     const double dz = std::max({0.0, double(low_z) - z, z - double(high_z)});
                     if (dz * dz > target * (1.0 + bound_margin)) continue;
-                    const double before = target;
                     visit(std::max(tx * tile_size, u - reach), std::min(tx * tile_size + tile_size - 1, u + reach),
                           std::max(ty * tile_size, v - reach), std::min(ty * tile_size + tile_size - 1, v + reach));
-                    if (target < before) reach = std::min(reach, reach_beyond(target, center, nearest_reach));
                 }
             }
+            if (target < ring_target) reach = std::min(reach, reach_beyond(target, center, nearest_reach));
         }
     }
     const float best = detail::candidate_of(least).first;
