@@ -90,8 +90,10 @@ const Inputs* inputs()
         in->model_cloud = read_cloud(data / "milk.pcd");
         in->pcl_model.reset(new pcl::PointCloud<PclPoint>(to_pcl(in->model_cloud)));
         in->model = prepare_model(in->model_cloud, RecognitionParams{}.model, "milk.pcd");
+        prepare_model_verification(in->model, RecognitionParams{});
         in->tutorial = read_recognition_params(std::filesystem::path(MFPC_SOURCE_DIR) / "examples/params/pcl_tutorial.json");
         in->tutorial_model = prepare_model(in->model_cloud, in->tutorial.model, "milk.pcd");
+        prepare_model_verification(in->tutorial_model, in->tutorial);
         PclStageTimes ignored;
         in->pcl_model_features = pcl_features(in->pcl_model, PclParams{}.model_sampling, PclParams{}, 2, ignored);
         // milk_carton.json: one structure around the carton; milk_pair_two.json: one per carton
