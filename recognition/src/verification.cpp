@@ -251,21 +251,25 @@ void hidden_by_model(std::span<const Point> placed, std::span<const Point> model
             for (long y = work.spans[i].y0; y <= work.spans[i].y1; ++y)
                 for (long x = work.spans[i].x0; x <= work.spans[i].x1; ++x)
                     work.discs[work.cursor[std::size_t(y * columns + x)]++] = std::uint32_t(i);
-    for (std::size_t i = 0; i < n; ++i) {
-        if (!facing[i] || !usable(i)) continue;
-        const Point& p = placed[i];
-        const std::size_t c = std::size_t(row(p.y() / p.z()) * columns + column(p.x() / p.z()));
-        for (std::uint32_t k = work.first[c]; k < work.first[c + 1] && !hidden[i]; ++k) {
-            const std::uint32_t j = work.discs[k];
-            if (j == i) continue;
-            const Point& normal = work.normals[j];
-            const float across = normal.dot(p);
-            if (std::abs(across) < 1e-12f) continue;  // the ray runs along the disc
-            const float s = normal.dot(placed[j]) / across;
-            const Point hit = s * p;
-            hidden[i] = s > 0.0f && hit.z() < p.z() - margin && (hit - placed[j]).squaredNorm() <= radius * radius;
+    // Each point's rays against the discs over it, in parallel: the rest of refine_and_test's
+    // searches are, and this alone was a serial tenth of verification.
+    tbb::parallel_for(tbb::blocked_range<std::size_t>(0, n, 256), [&](const auto& range) {
+        for (std::size_t i = range.begin(); i < range.end(); ++i) {
+            if (!facing[i] || !usable(i)) continue;
+            const Point& p = placed[i];
+            const std::size_t c = std::size_t(row(p.y() / p.z()) * columns + column(p.x() / p.z()));
+            for (std::uint32_t k = work.first[c]; k < work.first[c + 1] && !hidden[i]; ++k) {
+                const std::uint32_t j = work.discs[k];
+                if (j == i) continue;
+                const Point& normal = work.normals[j];
+                const float across = normal.dot(p);
+                if (std::abs(across) < 1e-12f) continue;  // the ray runs along the disc
+                const float s = normal.dot(placed[j]) / across;
+                const Point hit = s * p;
+                hidden[i] = s > 0.0f && hit.z() < p.z() - margin && (hit - placed[j]).squaredNorm() <= radius * radius;
+            }
         }
-    }
+    });
 }
 
 // The placed model points the sensor would see at `pose`, were nothing else in front of them:
