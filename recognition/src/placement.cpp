@@ -10,12 +10,12 @@
 #include <map>
 #include <numeric>
 #include <random>
-#include <unordered_map>
 
 #include <Eigen/Eigenvalues>
 #include <nlohmann/json.hpp>
 #include <tbb/parallel_for.h>
 
+#include "mfpc/core/detail/slot_table.hpp"
 #include "mfpc/core/error.hpp"
 #include "mfpc/kernels/voxel_grid.hpp"
 #include "mfpc/recognition/described_scene.hpp"
@@ -153,20 +153,39 @@ std::vector<std::vector<std::uint32_t>> clusters_of(std::span<const Point> point
         return (std::uint64_t(c.x()) & 0x1fffff) << 42 | (std::uint64_t(c.y()) & 0x1fffff) << 21 |
                (std::uint64_t(c.z()) & 0x1fffff);
     };
-    std::unordered_map<std::uint64_t, std::vector<std::uint32_t>> cells;
-    for (std::uint32_t i = 0; i < members.size(); ++i) cells[key_of(cell_of(points[members[i]]))].push_back(i);
+    // The cells numbered as first met, and each cell's members side by side in increasing order (a
+    // counting sort): a flat table, where a map of lists spent most of the search allocating them.
+    std::vector<Cell> cell(members.size());
+    std::vector<std::uint32_t> cell_number(members.size()), count;
+    detail::SlotTable table(members.size());
+    for (std::uint32_t i = 0; i < members.size(); ++i) {
+        cell[i] = cell_of(points[members[i]]);
+        const auto [number, added] = table.find_or_add(key_of(cell[i]), std::uint32_t(count.size()));
+        if (added) count.push_back(0);
+        ++count[number];
+        cell_number[i] = number;
+    }
+    std::vector<std::uint32_t> start(count.size() + 1, 0);
+    for (std::size_t c = 0; c < count.size(); ++c) start[c + 1] = start[c] + count[c];
+    std::vector<std::uint32_t> by_cell(members.size());
+    std::vector<std::uint32_t> cursor(start.begin(), start.end() - 1);
+    for (std::uint32_t i = 0; i < members.size(); ++i) by_cell[cursor[cell_number[i]]++] = i;
+    // Each pair once: within a cell's list the later members, else the 13 neighbour cells after
+    // a member's own (offsets above zero, in x then y then z); the pair's other member would find
+    // this one in a cell before its own. The lower index roots, so the components are the same
+    // whatever the order of the joins.
     for (std::uint32_t i = 0; i < members.size(); ++i) {
         const Point& p = points[members[i]];
-        const Cell c = cell_of(p);
-        for (int dx = -1; dx <= 1; ++dx)
-            for (int dy = -1; dy <= 1; ++dy)
-                for (int dz = -1; dz <= 1; ++dz) {
-                    const auto it = cells.find(key_of(c + Cell(dx, dy, dz)));
-                    if (it == cells.end()) continue;
-                    for (std::uint32_t j : it->second) {
-                        if (j <= i || ((points[members[j]] - p).cwiseAbs().array() > gap).any()) continue;
+        for (int dx = 0; dx <= 1; ++dx)
+            for (int dy = dx ? -1 : 0; dy <= 1; ++dy)
+                for (int dz = dx || dy ? -1 : 0; dz <= 1; ++dz) {
+                    const bool own = !dx && !dy && !dz;
+                    const std::uint32_t near = own ? cell_number[i] : table.find(key_of(cell[i] + Cell(dx, dy, dz)));
+                    if (near == detail::SlotTable::none) continue;
+                    for (std::uint32_t k = start[near]; k < start[near + 1]; ++k) {
+                        const std::uint32_t j = by_cell[k];
+                        if ((own && j <= i) || ((points[members[j]] - p).cwiseAbs().array() > gap).any()) continue;
                         const std::uint32_t a = root(i), b = root(j);
-                        // The lower index roots: the components are the same whatever the order.
                         if (a != b) parent[std::max(a, b)] = std::min(a, b);
                     }
                 }
