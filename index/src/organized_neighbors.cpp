@@ -464,7 +464,19 @@ bool OrganizedNeighbors::nearest_in_image(const Point& center, float radius2, st
                      ? 1
                      : reach_beyond(target, center, nearest_reach);
     if (reach > nearest_reach) return false;
-    if (reach > 1) {
+    // A reach of a few pixels (a hit a few millimetres off the surface): the rings of pixels about
+    // the 3 x 3, each once, the reach shrinking as the best improves.
+    constexpr long pixel_rings = 3;
+    if (reach > 1 && reach <= pixel_rings) {
+        for (long ring = 2; ring <= reach; ++ring) {
+            const double ring_target = target;
+            visit(u - ring, u + ring, v - ring, v - ring);
+            visit(u - ring, u + ring, v + ring, v + ring);
+            visit(u - ring, u - ring, v - ring + 1, v + ring - 1);
+            visit(u + ring, u + ring, v - ring + 1, v + ring - 1);
+            if (target < ring_target) reach = std::min(reach, reach_beyond(target, center, nearest_reach));
+        }
+    } else if (reach > 1) {
         // Then the tiles about the query's, ring after ring, each tile's pixels within the reach; a
         // tile whose depths all lie farther from the query's than the target is passed over (a
         // point is at least its depth's difference away). The reach shrinks as the best improves,
