@@ -54,6 +54,15 @@ Pose pose_at(const Eigen::Vector3f& translation, float degrees_about_y = 0.0f)
     return pose;
 }
 
+// A scene of the model alone, placed at `pose` (an unorganized cloud: no camera).
+PointCloud placed_scene(const Box& model, const Pose& pose)
+{
+    PointCloud scene;
+    for (const Point& p : model.points) scene.points.push_back(pose * p);
+    scene.width = std::uint32_t(scene.points.size());
+    return scene;
+}
+
 Instance hypothesis(const Pose& pose, float votes)
 {
     Instance instance;
@@ -122,9 +131,7 @@ TEST(RefineAndVerify, APreparedModelVerificationGivesTheSameInstances)
 {
     const Box model = box_model();
     const Pose truth = pose_at({0.0f, 0.0f, 0.8f}, 25.0f);
-    PointCloud scene;
-    for (const Point& p : model.points) scene.points.push_back(truth * p);
-    scene.width = std::uint32_t(scene.points.size());
+    const PointCloud scene = placed_scene(model, truth);
     const NeighborGrid grid(scene.points, 0.005f);
     const SceneEvidence evidence = make_scene_evidence(scene, grid, std::nullopt);
     // Off by a few millimetres, a quarter turn (which the prepared turns must retry), and nowhere.
@@ -168,9 +175,7 @@ TEST(RefineAndVerify, APoorFitDoesNotHideTheTruePose)
 {
     const Box model = box_model();
     const Pose truth = pose_at({0.0f, 0.0f, 0.8f}, 25.0f);
-    PointCloud scene;
-    for (const Point& p : model.points) scene.points.push_back(truth * p);
-    scene.width = std::uint32_t(scene.points.size());
+    const PointCloud scene = placed_scene(model, truth);
     const NeighborGrid grid(scene.points, 0.005f);
     const SceneEvidence evidence = make_scene_evidence(scene, grid, std::nullopt);
 
