@@ -63,8 +63,8 @@ std::vector<std::uint8_t> model_points_in_view(std::span<const Point> points, st
 
 /// @brief What refine_and_verify needs of a model whatever the scene, for one set of refinement and
 /// verification parameters: the thinned model, its point spacing, its confusable and quarter turns
-/// and its rim probes. Made once per model (prepare_verification) rather than once per scene: on a
-/// Kinect scene they cost about as much as the verification of the scene's hypotheses.
+/// and its rim probes. Made once per model (prepare_verification) rather than once per scene: about
+/// 10 ms a scene and model at 2 threads, a third to a half of a real Kinect scene's verification.
 struct ModelVerification;
 
 /// @brief Prepares a model's verification for these parameters (see ModelVerification).
