@@ -27,9 +27,10 @@ namespace mfpc {
 /// one of four planes through the sensor, whose distance from the query bounds it (the camera's fit
 /// residual is taken off the window). Queries the bound cannot settle try windows twice as wide,
 /// within a budget of a few pixels per cloud point for a search; the rest go to a NeighborGrid over
-/// the cloud, built on first need. A nearest-within-a-radius query reads the pixels about its
-/// projection (off the image too), then tiles of 8 x 8 pixels ring after ring, as far as the radius
-/// or the best so far needs, passing over the tiles whose depths all lie too far from the query's.
+/// the cloud, built on first need. A nearest-within-a-radius query reads the 3 x 3 pixels about its
+/// projection (off the image too), then, as far as the radius or the best so far needs, the rings
+/// of pixels around them (2 or 3 pixels out) or tiles of 8 x 8 pixels ring after ring, passing over
+/// the tiles whose depths all lie too far from the query's.
 /// The results are NeighborGrid's, bit for bit.
 class OrganizedNeighbors {
 public:
@@ -139,9 +140,9 @@ private:
     // every plane) gives cap + 1.
     long reach_beyond(double target, const Point& center, long cap) const;
     // The nearest point to `center` with squared distance < radius2, from the depth image alone:
-    // the pixels about its projection, in widening rings of tiles, those too far in depth skipped
-    // (tile_depths_). False when the image cannot settle it (behind the sensor, or a window wider
-    // than nearest_reach needed): the fallback grid's then.
+    // the pixels about its projection, then rings of pixels or of tiles (those too far in depth
+    // skipped, tile_depths_). False when the image cannot settle it (behind the sensor, or a window
+    // wider than nearest_reach needed): the fallback grid's then.
     bool nearest_in_image(const Point& center, float radius2, std::uint32_t& index, float& squared_distance) const;
     // Whether a stage is worth running for `open` queries rather than going to the grid, within
     // what is left of a search's budget of window pixels (taken from it when so).
