@@ -142,27 +142,25 @@ std::size_t OrganizedNeighbors::wide_budget() const
     return 4 * std::max<std::size_t>(points_.size(), 1024);
 }
 
-bool OrganizedNeighbors::pixel_of(const Point& center, long& u, long& v) const
+bool OrganizedNeighbors::pixel_of(const Point& center, long& u, long& v, long off) const
 {
     if (!(center.z() > 0.0f) || !center.allFinite()) return false;
     const double x = camera_.fx * (double(center.x()) / center.z()) + camera_.cx;
     const double y = camera_.fy * (double(center.y()) / center.z()) + camera_.cy;
-    // Off the image before rounding, so that lround never sees a value past a long.
-    if (!(x > -1.0 && y > -1.0 && x < double(camera_.width) && y < double(camera_.height))) return false;
+    // Too far off the image before rounding, so that lround never sees a value past a long.
+    const double margin = double(off);
+    if (!(x > -1.0 - margin && y > -1.0 - margin && x < double(camera_.width) + margin &&
+          y < double(camera_.height) + margin))
+        return false;
     u = std::lround(x);
     v = std::lround(y);
-    return u >= 0 && v >= 0 && u < long(camera_.width) && v < long(camera_.height);
+    return u >= -off && v >= -off && u < long(camera_.width) + off && v < long(camera_.height) + off;
 }
 
 bool OrganizedNeighbors::inside(const Stage& stage, long u, long v) const
 {
     return u >= stage.reach && v >= stage.reach && u + stage.reach < long(camera_.width) &&
            v + stage.reach < long(camera_.height);
-}
-
-double OrganizedNeighbors::outside_bound_squared(const Stage& stage, const Point& center) const
-{
-    return bound_squared(stage.slack, center);
 }
 
 double OrganizedNeighbors::bound_squared(double slack, const Point& center) const
@@ -375,11 +373,11 @@ void OrganizedNeighbors::search_window(const Stage& stage, std::span<const Point
                 });
             }
             if (best.size() < want) continue;
-            // Every point outside the window lies at least outside_bound away: strictly inside, with
+            // Every point outside the window lies at least the stage's bound away: strictly inside, with
             // bound_margin, or the query goes on to a wider window, then the grid. A window over the
             // whole image has seen every point.
             if (!stage.whole &&
-                !(double(best.back().first) < outside_bound_squared(stage, center) * (1.0 - bound_margin)))
+                !(double(best.back().first) < bound_squared(stage.slack, center) * (1.0 - bound_margin)))
                 continue;
             for (std::size_t j = 0; j < want; ++j) {
                 indices[q * want + j] = best[j].second;
@@ -426,16 +424,12 @@ bool OrganizedNeighbors::nearest_in_image(const Point& center, float radius2, st
     // Wider windows than this (a query a few centimetres from the sensor, or a radius near its
     // depth) are the grid's: one costs up to (2 * 48 + 1)^2 pixels, a few hundred tiles.
     constexpr long nearest_reach = 48;
-    if (!(center.z() > 0.0f)) return false;
-    const double x = camera_.fx * (double(center.x()) / center.z()) + camera_.cx;
-    const double y = camera_.fy * (double(center.y()) / center.z()) + camera_.cy;
     // A query projecting off the image is settled too: the window about its pixel may reach into
     // the image, or, lying wholly outside, show that nothing is near it. Farther off than any
-    // window reaches, it is the grid's (and lround never sees a value past a long).
+    // window reaches, it is the grid's.
+    long u = 0, v = 0;
+    if (!pixel_of(center, u, v, nearest_reach)) return false;
     const long width = long(camera_.width), height = long(camera_.height);
-    const double off = double(nearest_reach) + 1.0;
-    if (!(x > -off && y > -off && x < double(width) + off && y < double(height) + off)) return false;
-    const long u = std::lround(x), v = std::lround(y);
 
     // The least (squared distance, index) so far, packed as one integer, and the squared distance
     // a point must beat: the radius's, then the best's.

@@ -28,6 +28,14 @@ bool faces_camera(const Pose& pose, const Point& p, const Point& normal, float m
     return normal.allFinite() && (pose.linear() * normal).dot(-p) > min_facing_cos * normal.norm() * p.norm();
 }
 
+// The model's normals must be one per point; `where` names the caller in the error.
+void check_model_normals(const char* where, std::span<const Point> points, std::span<const Point> normals)
+{
+    if (normals.size() != points.size())
+        throw Error(where, "the model has " + std::to_string(normals.size()) + " normals for " +
+                               std::to_string(points.size()) + " points");
+}
+
 // The spread of points off their best plane: the square root of the smallest eigenvalue of their
 // covariance.
 struct Spread {
@@ -615,9 +623,7 @@ ModelVerification::ModelVerification(std::span<const Point> model_points, std::s
                                      const RefineParams& refine_params, const VerifyParams& verify_params)
     : refine(refine_params), verify(verify_params), model_size(model_points.size())
 {
-    if (model_normals.size() != model_points.size())
-        throw Error("refine_and_verify", "the model has " + std::to_string(model_normals.size()) + " normals for " +
-                                             std::to_string(model_points.size()) + " points");
+    check_model_normals("refine_and_verify", model_points, model_normals);
     std::vector<std::uint32_t> kept;
     if (refine.model_voxel > 0.0f) kept = uniform_sampling(model_points, refine.model_voxel);
     else
@@ -686,9 +692,7 @@ SceneEvidence make_scene_evidence(const PointCloud& scene, const OrganizedNeighb
 std::vector<std::uint8_t> model_points_in_view(std::span<const Point> points, std::span<const Point> normals,
                                                const Pose& pose, float min_facing_cos, float spacing)
 {
-    if (normals.size() != points.size())
-        throw Error("model_points_in_view", "the model has " + std::to_string(normals.size()) + " normals for " +
-                                                std::to_string(points.size()) + " points");
+    check_model_normals("model_points_in_view", points, normals);
     std::vector<Point> placed(points.size());
     place(pose, points, placed);
     std::vector<std::uint8_t> seen(points.size()), hidden;
@@ -703,9 +707,7 @@ std::vector<Instance> refine_and_verify(std::vector<Instance> instances, std::sp
                                         const ModelVerification* prepared)
 {
     if (!refine.enabled && !verify.enabled) return instances;
-    if (model_normals.size() != model_points.size())
-        throw Error("refine_and_verify", "the model has " + std::to_string(model_normals.size()) + " normals for " +
-                                             std::to_string(model_points.size()) + " points");
+    check_model_normals("refine_and_verify", model_points, model_normals);
     if (scene.grid == nullptr && scene.organized == nullptr) throw Error("refine_and_verify", "no scene index");
     if (prepared && (!prepared_for(*prepared, refine, verify) || prepared->model_size != model_points.size()))
         throw Error("refine_and_verify", "the model's verification was prepared for other parameters or another model");

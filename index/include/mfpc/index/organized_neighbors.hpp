@@ -113,12 +113,11 @@ private:
     Stage make_stage(int window, bool listed) const;
     // Windows from `first` doubling until one covers the image; the first two listed.
     std::vector<Stage> make_stages(int first) const;
-    // The pixel a query projects to; false when off the image (or behind the sensor, or not finite).
-    bool pixel_of(const Point& center, long& u, long& v) const;
+    // The pixel a query projects to; false when more than `off` pixels off the image (or behind the
+    // sensor, or not finite).
+    bool pixel_of(const Point& center, long& u, long& v, long off = 0) const;
     // Whether the stage's whole window around pixel (u, v) lies in the image.
     bool inside(const Stage& stage, long u, long v) const;
-    // A lower bound of the squared distance from the query to any point outside the window.
-    double outside_bound_squared(const Stage& stage, const Point& center) const;
     // Calls visit(point index) for every point in the stage's window around pixel (u, v).
     template <class Visit>
     void visit_window(const Stage& stage, long u, long v, Visit&& visit) const;
@@ -133,7 +132,7 @@ private:
                        std::span<std::uint8_t> settled) const;
     // The squared distance from a query to the nearest of the four planes through the sensor that
     // pass `slack` pixels either side of its projection: a lower bound for any point projecting
-    // farther than that (outside_bound_squared's, for any slack).
+    // farther than that: with a stage's slack, any point outside its window.
     double bound_squared(double slack, const Point& center) const;
     // The least window reach (pixels about the query's pixel) whose outside lies farther than
     // `target` (squared, with bound_margin); a reach past `cap` (or none: the target is beyond
