@@ -13,14 +13,14 @@
 #include <tbb/parallel_reduce.h>
 
 #include "mfpc/core/error.hpp"
-#include "mfpc/core/detail/floor.hpp"
+#include "mfpc/index/detail/index_lattice.hpp"
 #include "mfpc/index/detail/radix_sort.hpp"
 
 namespace mfpc {
 
 namespace {
 
-constexpr std::uint64_t leaf_voxels = 512;  // 8 x 8 x 8, OpenVDB's PointIndexGrid leaf
+constexpr std::uint64_t leaf_voxels = detail::index_leaf_voxels;
 
 void initialize_openvdb()
 {
@@ -65,17 +65,9 @@ PointIndex::PointIndex(std::span<const Point> points, const PointIndexParams& pa
     // world-to-index map, in double), so the tables and the grid are the ones
     // tools::createPointIndexGrid builds; one radix sort by (leaf, voxel, index) builds them in
     // less time and memory than its partitioner.
-    const double scale = double(params.voxel_size);
-    const double translation = 0.5 * scale;
-    const double inverse = 1.0 / scale;
-    // Before the floor: Coord::round is floor(x + 0.5).
-    const auto unfloored = [&](const Point& p) {
-        return ((p.cast<double>().array() - translation) * inverse + 0.5).eval();
-    };
-    const auto voxel_of = [&](const Point& p) {
-        const Eigen::Array3d u = unfloored(p);
-        return Eigen::Vector3i(floor_to<int>(u.x()), floor_to<int>(u.y()), floor_to<int>(u.z()));
-    };
+    const detail::IndexLattice lattice(params.voxel_size);
+    const auto unfloored = [&](const Point& p) { return lattice.unfloored(p); };
+    const auto voxel_of = [&](const Point& p) { return lattice.voxel(p); };
     // The conversion is monotonic, so the extreme voxels are those of the bounding box, and
     // checking its corners checks every point. Far inside OpenVDB's 32-bit coordinates, so that
     // leaf origins and query boxes widened by a voxel cannot overflow.
@@ -114,23 +106,11 @@ PointIndex::PointIndex(std::span<const Point> points, const PointIndexParams& pa
     const Eigen::Vector3i lo = voxel_of(bounds.min).unaryExpr([](int c) { return c >> 3; });
     const Eigen::Vector3i hi = voxel_of(bounds.max).unaryExpr([](int c) { return c >> 3; });
     const Eigen::Vector3i span = hi - lo;  // each below 2^28 leaves
-    const std::uint64_t span_y = std::uint64_t(span.y()) + 1;
-    const std::uint64_t span_z = std::uint64_t(span.z()) + 1;
-    const std::uint64_t span_xy = (std::uint64_t(span.x()) + 1) * span_y;  // below 2^56
-    const auto offset_in_leaf = [](const Eigen::Vector3i& v) {
-        return std::uint64_t(((v.x() & 7) << 6) | ((v.y() & 7) << 3) | (v.z() & 7));
-    };
+    const auto offset_in_leaf = detail::LeafNumbering::offset_in_leaf;
     std::vector<std::uint64_t> keys;
-    if (span_xy <= std::numeric_limits<std::uint64_t>::max() / (span_z * leaf_voxels)) {
-        const std::uint64_t key_count = span_xy * span_z * leaf_voxels;
-        const auto key_of = [&](std::size_t i) {
-            const Eigen::Vector3i v = voxel_of(points[i]);
-            const Eigen::Vector3i leaf = v.unaryExpr([](int c) { return c >> 3; }) - lo;
-            return ((std::uint64_t(leaf.x()) * span_y + std::uint64_t(leaf.y())) * span_z + std::uint64_t(leaf.z())) *
-                       leaf_voxels +
-                   offset_in_leaf(v);
-        };
-        detail::sort_by_key(n, int(std::bit_width(key_count - 1)), key_of, point_order_, keys);
+    if (const std::optional<detail::LeafNumbering> numbering = detail::LeafNumbering::over(lo, hi)) {
+        const auto key_of = [&](std::size_t i) { return numbering->key(voxel_of(points[i])); };
+        detail::sort_by_key(n, int(std::bit_width(numbering->key_count - 1)), key_of, point_order_, keys);
     } else {
         // Leaves too far apart to number (at the default 5 mm voxel, points some ten kilometres
         // apart on two or three axes: a stray point): the same order by four stable sorts,
