@@ -167,8 +167,8 @@ void BM_RealScene_IndexBuild(benchmark::State& state)
     }
 }
 
-// One foveation with no index at hand (what `mfpc recognize` does): the index of the points some
-// outer box covers is built inside, then labels and downsampling.
+// One foveation with no index at hand (what `mfpc recognize` does): no index is built; each point is
+// labelled and keyed with where an index would list it, then downsampled.
 void BM_RealScene_OneShot(benchmark::State& state)
 {
     MFPC_REQUIRE_SCENE(state, scene);
@@ -380,7 +380,7 @@ void print_summary(const bench::RecordingReporter& r)
                   "RealScene/ours_labels/threads/1");
     std::printf("real scene, ours on 1 core, with colours: %.3f ms (goal: at most 3 ms)\n",
                 r.time_ms("RealScene/ours/threads/1"));
-    r.print_ratio("real scene, 1 core: reference / ours one-shot (index of the covered points built inside)",
+    r.print_ratio("real scene, 1 core: reference / ours one-shot (no index at hand)",
                   "RealScene/reference", "RealScene/one_shot/threads/1");
     r.print_ratio("real scene, 1 core: index of the whole scene / ours one-shot", "RealScene/index_build/threads/1",
                   "RealScene/one_shot/threads/1");

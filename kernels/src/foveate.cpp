@@ -2,11 +2,14 @@
 
 #include <algorithm>
 #include <chrono>
+#include <optional>
+#include <numeric>
 #include <string>
 
 #include <tbb/parallel_for.h>
 
 #include "mfpc/core/error.hpp"
+#include "mfpc/index/detail/index_lattice.hpp"
 #include "foveate_internal.hpp"
 
 namespace mfpc {
@@ -37,6 +40,31 @@ void detail::check_structures(std::span<const FoveatedStructure> structures)
         throw Error("foveation", std::to_string(structures.size()) + " structures of " + std::to_string(m + 1) +
                                      " levels are more than 65,534 level regions");
     }
+}
+
+std::vector<std::uint16_t> detail::densest_first_ranks(std::span<const FoveatedStructure> structures)
+{
+    const int boxes_per_structure = structures[0].levels + 1;
+    const std::size_t region_count = structures.size() * std::size_t(boxes_per_structure);
+    std::vector<float> density(region_count);
+    for (std::size_t s = 0; s < structures.size(); ++s) {
+        for (int k = 0; k < boxes_per_structure; ++k) {
+            density[s * std::size_t(boxes_per_structure) + std::size_t(k)] = structures[s].density(k);
+        }
+    }
+    // Densest first: smaller d_k, then the higher level, then the earlier structure (paper Eq. 6
+    // keeps a point at the densest level covering it; the rest breaks ties deterministically).
+    std::vector<std::uint16_t> by_rank(region_count);
+    std::iota(by_rank.begin(), by_rank.end(), std::uint16_t(0));
+    const int bps = boxes_per_structure;
+    std::sort(by_rank.begin(), by_rank.end(), [&](std::uint16_t a, std::uint16_t b) {
+        if (density[a] != density[b]) return density[a] < density[b];
+        if (a % bps != b % bps) return a % bps > b % bps;
+        return a / bps < b / bps;
+    });
+    std::vector<std::uint16_t> rank(region_count);
+    for (std::size_t r = 0; r < region_count; ++r) rank[by_rank[r]] = std::uint16_t(r);
+    return rank;
 }
 
 FoveationRegions foveation_regions(const PointIndex& index, std::span<const FoveatedStructure> structures,
@@ -132,17 +160,133 @@ FoveatedCloud foveate(const PointCloud& cloud, const PointIndex& index, const Fo
     return result;
 }
 
+namespace {
+
+// The one-shot foveate's labelling without an index: every point tested against the level boxes,
+// each covered one listed (ascending) in its region(s) with the key that ranks it as an index of
+// the cloud would list it, so that downsampling emits what foveate() over that index does. None
+// when the outer boxes reach beyond the index's lattice or span too many leaves to key.
+struct KeyedRegions {
+    FoveationRegions regions;
+    std::vector<std::uint64_t> keys;  // one per member
+};
+std::optional<KeyedRegions> keyed_regions(const PointCloud& cloud, std::span<const FoveatedStructure> structures,
+                                          FoveationMode mode, int single_structure)
+{
+    const detail::IndexLattice lattice(PointIndexParams{}.voxel_size);
+    Box outer = bounding_box(std::span<const Point>());
+    for (const FoveatedStructure& structure : structures) outer.extend(structure.outer_box());
+    // As PointIndex refuses points: farther than 2^30 voxels (or not finite).
+    constexpr double coordinate_limit = double(1 << 30);
+    for (const Point& corner : {outer.min, outer.max})
+        if (!(lattice.unfloored(corner).abs().maxCoeff() <= coordinate_limit)) return std::nullopt;
+    const auto leaf_of = [&](const Point& p) { return lattice.voxel(p).unaryExpr([](int c) { return c >> 3; }).eval(); };
+    const std::optional<detail::LeafNumbering> numbering = detail::LeafNumbering::over(leaf_of(outer.min), leaf_of(outer.max));
+    if (!numbering) return std::nullopt;
+
+    const int levels = structures[0].levels;
+    const int boxes = levels + 1;
+    const std::size_t region_count = structures.size() * std::size_t(boxes);
+    const LevelFaces faces(structures);
+    const std::vector<std::uint16_t> rank = detail::densest_first_ranks(structures);
+    const int first_structure = mode == FoveationMode::single ? single_structure : 0;
+    const int end_structure = mode == FoveationMode::single ? single_structure + 1 : int(structures.size());
+    const detail::LevelRange any_level{-1, std::int8_t(levels)};
+
+    // Blocks of the cloud in parallel, each listing its members per region; joined in block order.
+    struct Block {
+        std::vector<std::vector<std::uint32_t>> members;
+        std::vector<std::vector<std::uint64_t>> keys;
+        std::size_t covered_points = 0;
+        std::size_t coverage_pairs = 0;
+    };
+    constexpr std::size_t block_size = 16384;
+    std::vector<Block> blocks((cloud.size() + block_size - 1) / block_size);
+    tbb::parallel_for(std::size_t(0), blocks.size(), [&](std::size_t b) {
+        Block& block = blocks[b];
+        block.members.resize(region_count);
+        block.keys.resize(region_count);
+        for (std::size_t i = b * block_size, end = std::min(cloud.size(), i + block_size); i < end; ++i) {
+            const Point& p = cloud.points[i];
+            if (!faces.covers(p)) continue;
+            std::size_t covering = 0;
+            std::uint64_t key = 0;
+            int densest = -1;
+            const auto add = [&](int region) {
+                block.members[std::size_t(region)].push_back(std::uint32_t(i));
+                block.keys[std::size_t(region)].push_back(key);
+            };
+            for (int s = first_structure; s < end_structure; ++s) {
+                const int level = faces.level(s, p, any_level);
+                if (level < 0) continue;
+                if (covering++ == 0) key = numbering->key(lattice.voxel(p));
+                const int region = s * boxes + level;
+                if (mode == FoveationMode::mfpc) {
+                    if (densest < 0 || rank[std::size_t(region)] < rank[std::size_t(densest)]) densest = region;
+                } else {
+                    add(region);
+                }
+            }
+            if (densest >= 0) add(densest);
+            block.covered_points += covering > 0;
+            block.coverage_pairs += covering;
+        }
+    });
+
+    KeyedRegions out;
+    FoveationRegions& regions = out.regions;
+    regions.structures = int(structures.size());
+    regions.levels = levels;
+    regions.offsets.assign(region_count + 1, 0);
+    for (std::size_t r = 0; r < region_count; ++r) {
+        std::size_t count = 0;
+        for (const Block& block : blocks) count += block.members[r].size();
+        regions.offsets[r + 1] = regions.offsets[r] + std::uint32_t(count);
+    }
+    regions.members.resize(regions.offsets.back());
+    out.keys.resize(regions.offsets.back());
+    tbb::parallel_for(std::size_t(0), region_count, [&](std::size_t r) {
+        std::size_t at = regions.offsets[r];
+        for (const Block& block : blocks) {
+            std::copy(block.members[r].begin(), block.members[r].end(), regions.members.begin() + std::ptrdiff_t(at));
+            std::copy(block.keys[r].begin(), block.keys[r].end(), out.keys.begin() + std::ptrdiff_t(at));
+            at += block.members[r].size();
+        }
+    });
+    for (const Block& block : blocks) {
+        regions.covered_points += block.covered_points;
+        regions.coverage_pairs += block.coverage_pairs;
+    }
+    return out;
+}
+
+}  // namespace
+
 FoveatedCloud foveate(const PointCloud& cloud, const FoveationConfig& config, FoveationMode mode,
                       int single_structure)
 {
     if (mode == FoveationMode::none) return unfoveated(cloud);
     check_structures(config.structures);
-    // select() trusts the attribute sizes (the indexed path finds a mismatch in building the index).
+    // The labelling below trusts the attribute sizes (the indexed path finds a mismatch in building
+    // the index).
     check_cloud(cloud, "foveation");
-    // Only points inside some outer box can belong to a region. Taken in ascending order, they
-    // keep their relative order in the index (leaf, voxel, then point), so labels, runs and
-    // downsampling see the same points in the same order as over an index of the whole cloud.
-    // Per block of the cloud, its covered points; the blocks joined in order.
+    const int structure_count = int(config.structures.size());
+    if (mode == FoveationMode::single && (single_structure < 0 || single_structure >= structure_count)) {
+        throw Error("foveation", "structure " + std::to_string(single_structure) + " does not exist (config has " +
+                                     std::to_string(structure_count) + ")");
+    }
+    // Without an index: each point tested against the boxes, and downsampling told where an index
+    // would list each member, so the result is the indexed path's.
+    const auto start = std::chrono::steady_clock::now();
+    if (std::optional<KeyedRegions> keyed = keyed_regions(cloud, config.structures, mode, single_structure)) {
+        const auto labelled = std::chrono::steady_clock::now();
+        FoveatedCloud result = downsample_labelled(cloud, keyed->regions, config.structures, config.downsample, keyed->keys);
+        result.label_ms = std::chrono::duration<double, std::milli>(labelled - start).count();
+        result.downsample_ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - labelled).count();
+        return result;
+    }
+    // Outer boxes too far out to key (kilometres): index the points inside some outer box. Taken
+    // in ascending order, they keep their relative order in the index (leaf, voxel, then point).
     const LevelFaces faces(config.structures);
     constexpr std::size_t block = 16384;
     std::vector<std::vector<std::uint32_t>> block_covered((cloud.size() + block - 1) / block);

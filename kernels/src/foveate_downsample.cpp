@@ -1,5 +1,6 @@
 #include <algorithm>
 #include <array>
+#include <limits>
 #include <string>
 
 #include <tbb/parallel_for.h>
@@ -43,6 +44,10 @@ struct RegionMembers {
     std::span<const std::uint32_t> members;
     std::span<const RegionRun> runs;  // empty: use members
     const PointIndex* index = nullptr;
+    // Empty: the members come in the index's order. Else, one per member: the members come in
+    // another order (the one-shot foveate's, ascending), and (key, member) ranks them as an index
+    // would list them (detail::LeafNumbering).
+    std::span<const std::uint64_t> keys;
 
     // Calls visit(point index, point) for every member, in member order.
     template <typename Visit>
@@ -60,15 +65,39 @@ struct RegionMembers {
     }
 };
 
+// Where the index would list a member: its key, then its number.
+struct IndexRank {
+    std::uint64_t key = std::numeric_limits<std::uint64_t>::max();
+    std::uint32_t point = std::numeric_limits<std::uint32_t>::max();
+    bool operator<(const IndexRank& other) const { return key != other.key ? key < other.key : point < other.point; }
+};
+
+// The positions 0 .. ranks.size() - 1 ordered by rank: the order in which an index would list them.
+std::vector<std::uint32_t> by_rank(const std::vector<IndexRank>& ranks)
+{
+    std::vector<std::uint32_t> order(ranks.size());
+    for (std::size_t i = 0; i < order.size(); ++i) order[i] = std::uint32_t(i);
+    std::sort(order.begin(), order.end(), [&](std::uint32_t a, std::uint32_t b) { return ranks[a] < ranks[b]; });
+    return order;
+}
+
 // Downsamples the members of one region, all inside `box` (the region's level box). Voxels are kept
-// in first-occurrence order; each voxel's sums run in member order.
+// in the order of their first member in the index's order; each voxel's sums run in member order
+// (their double sums of float coordinates are exact, so the member order does not matter).
 RegionOutput downsample_region(const PointCloud& cloud, const RegionMembers& region, const Box& box, float density,
                                Downsample downsample, int structure, int level)
 {
     RegionOutput out;
     if (region.count == 0) return out;
+    const bool keyed = !region.keys.empty();
     if (density == 0.0f) {
-        region.for_each(cloud, [&](std::uint32_t point, const Point&) { keep_point(cloud, point, out); });
+        if (!keyed) {
+            region.for_each(cloud, [&](std::uint32_t point, const Point&) { keep_point(cloud, point, out); });
+            return out;
+        }
+        std::vector<IndexRank> ranks(region.count);
+        for (std::size_t j = 0; j < region.count; ++j) ranks[j] = {region.keys[j], region.members[j]};
+        for (const std::uint32_t j : by_rank(ranks)) keep_point(cloud, region.members[j], out);
         return out;
     }
 
@@ -122,11 +151,17 @@ RegionOutput downsample_region(const PointCloud& cloud, const RegionMembers& reg
             double distance;
         };
         std::vector<Nearest> voxels;
+        std::vector<IndexRank> first;  // keyed: per voxel, its first member in the index's order
+        std::size_t j = 0;             // the member's position
         region.for_each(cloud, [&](std::uint32_t point, const Point& p) {
             const auto v = voxel(p);
             const Eigen::Vector3d center = ((v + lowest).cast<double>().array() + 0.5).matrix() * d;
             const double distance = (p.cast<double>() - center).squaredNorm();
             const auto [slot, is_new] = slots.find(v[0], v[1], v[2], std::uint32_t(voxels.size()));
+            if (keyed) {
+                if (is_new) first.emplace_back();
+                first[slot] = std::min(first[slot], IndexRank{region.keys[j++], point});
+            }
             // Strictly nearer, or as near with a lower index: the same point whatever the order.
             if (is_new) {
                 voxels.push_back({point, distance});
@@ -135,7 +170,11 @@ RegionOutput downsample_region(const PointCloud& cloud, const RegionMembers& reg
                 voxels[slot] = {point, distance};
             }
         });
-        for (const Nearest& nearest : voxels) keep_point(cloud, nearest.point, out);
+        if (!keyed) {
+            for (const Nearest& nearest : voxels) keep_point(cloud, nearest.point, out);
+        } else {
+            for (const std::uint32_t v : by_rank(first)) keep_point(cloud, voxels[v].point, out);
+        }
         return out;
     }
 
@@ -193,6 +232,7 @@ RegionOutput downsample_region(const PointCloud& cloud, const RegionMembers& reg
         if (normals) slot_of.push_back(slot);
     };
     auto add_point = [&](std::uint32_t point, const Point& p) { add_to(slot_for(voxel(p), point), point, p); };
+    std::vector<IndexRank> first;  // keyed: per voxel, its first member in the index's order
     // The slot of the downsampling voxel holding all of `bounds` (tight bounds of index voxel
     // points, `first` the lowest of them), or none when they span several voxels or leave the
     // box's: the points then go one by one, where a member outside the box is an error.
@@ -201,7 +241,25 @@ RegionOutput downsample_region(const PointCloud& cloud, const RegionMembers& reg
         if (!voxel_in_box(bounds.min, v) || !in_voxel(bounds.max, v)) return detail::VoxelSlots::none;
         return slot_for(v, first);
     };
-    if (region.runs.empty()) {
+    if (keyed) {
+        // Members in cloud order: neighbours in a scan's rows, often in one voxel, whose slot is
+        // then the last one's.
+        Eigen::Matrix<std::int64_t, 3, 1> last_voxel(-1, -1, -1);
+        std::uint32_t last_slot = 0;
+        for (std::size_t j = 0; j < region.count; ++j) {
+            const std::uint32_t point = region.members[j];
+            const Point& p = cloud.points[point];
+            const Eigen::Matrix<std::int64_t, 3, 1> v = voxel(p);
+            if (v != last_voxel) {
+                last_slot = slot_for(v, point);
+                last_voxel = v;
+            }
+            const std::uint32_t slot = last_slot;
+            if (slot == first.size()) first.emplace_back();
+            first[slot] = std::min(first[slot], IndexRank{region.keys[j], point});
+            add_to(slot, point, p);
+        }
+    } else if (region.runs.empty()) {
         region.for_each(cloud, add_point);
     } else {
         const auto order = region.index->point_order();
@@ -251,14 +309,24 @@ RegionOutput downsample_region(const PointCloud& cloud, const RegionMembers& reg
         }
     }
 
+    // The output order: first occurrence, which is the index's order unless keyed.
+    std::vector<std::uint32_t> order;
+    if (keyed) {
+        order = by_rank(first);
+    } else {
+        order.resize(voxels.size());
+        for (std::size_t v = 0; v < order.size(); ++v) order[v] = std::uint32_t(v);
+    }
     out.points.reserve(voxels.size());
     out.sources.reserve(voxels.size());
-    for (const Sum& sum : voxels) {
+    for (const std::uint32_t v : order) {
+        const Sum& sum = voxels[v];
         out.points.push_back((sum.xyz / double(sum.count)).cast<float>());
         out.sources.push_back(cloud.source_position(sum.first));
     }
     if (colors) {
-        for (const Sum& sum : voxels) {
+        for (const std::uint32_t v : order) {
+            const Sum& sum = voxels[v];
             // Rounded to nearest: floor((2 sum + count) / (2 count)). In double, which is exact here
             // and much cheaper than a 64-bit division: both operands are integers below 2^45, and a
             // quotient below 256 that is not an integer is at least 2^-33 from one, far more than
@@ -276,7 +344,7 @@ RegionOutput downsample_region(const PointCloud& cloud, const RegionMembers& reg
         region.for_each(cloud, [&](std::uint32_t point, const Point&) {
             normal_sums[slot_of[m++]] += cloud.normals[point].cast<double>();
         });
-        for (std::size_t v = 0; v < voxels.size(); ++v) {
+        for (const std::uint32_t v : order) {
             const double length = normal_sums[v].norm();
             out.normals.push_back(length > 0.0 ? Point((normal_sums[v] / length).cast<float>())
                                                : cloud.normals[voxels[v].first]);
@@ -288,7 +356,8 @@ RegionOutput downsample_region(const PointCloud& cloud, const RegionMembers& reg
 }  // namespace
 
 FoveatedCloud detail::downsample_labelled(const PointCloud& cloud, const FoveationRegions& regions,
-                                          std::span<const FoveatedStructure> structures, Downsample downsample)
+                                          std::span<const FoveatedStructure> structures, Downsample downsample,
+                                          std::span<const std::uint64_t> member_keys)
 {
     const int region_count = regions.region_count();
     const bool use_runs = regions.index && !regions.run_offsets.empty();
@@ -301,7 +370,7 @@ FoveatedCloud detail::downsample_labelled(const PointCloud& cloud, const Foveati
         const FoveatedStructure& structure = structures[std::size_t(s)];
         const float density = structure.density(k);
         const std::size_t count = regions.offsets[std::size_t(r) + 1] - regions.offsets[std::size_t(r)];
-        RegionMembers region{count, {}, {}, regions.index};
+        RegionMembers region{count, {}, {}, regions.index, {}};
         if (use_runs) {
             region.runs = std::span<const RegionRun>(regions.runs)
                               .subspan(regions.run_offsets[std::size_t(r)],
@@ -310,6 +379,8 @@ FoveatedCloud detail::downsample_labelled(const PointCloud& cloud, const Foveati
         // Regions of runs list no members: the member list is empty there, and an offset into it
         // would be undefined even for an empty region.
         if (!use_runs) region.members = regions.region(s, k);
+        if (!member_keys.empty())
+            region.keys = member_keys.subspan(regions.offsets[std::size_t(r)], region.members.size());
         outputs[std::size_t(r)] = downsample_region(cloud, region, structure.level_box(k), density, downsample, s, k);
         result.regions[std::size_t(r)] = {s, k, density, count, outputs[std::size_t(r)].points.size()};
     });

@@ -132,6 +132,11 @@ private:
     std::vector<Float4> upper_;
 };
 
+// Per region r = structure * (m + 1) + level, its place in the densest-first order that redundancy
+// treatment keeps a point by: smaller d_k, then the higher level, then the earlier structure. The
+// structures must have passed check_structures.
+std::vector<std::uint16_t> densest_first_ranks(std::span<const FoveatedStructure> structures);
+
 // Throws unless the structures are usable together: at least one, one level count m in [1,
 // max_levels], and few enough level regions for 16-bit region ids.
 void check_structures(std::span<const FoveatedStructure> structures);
@@ -143,8 +148,12 @@ FoveationRegions label_regions(const PointIndex& index, std::span<const Foveated
                                FoveationMode mode, int single_structure, bool with_members);
 
 // Downsampling of regions known to be well formed: made by label_regions (the member list may be
-// absent), or checked by downsample_regions.
+// absent), or checked by downsample_regions. member_keys: empty when the members come in the
+// index's order; else one per member of the member list, whose members then come in ascending
+// order, ranking them as an index would list them (detail::LeafNumbering keys): the output is the
+// same as from members in the index's order.
 FoveatedCloud downsample_labelled(const PointCloud& cloud, const FoveationRegions& regions,
-                                  std::span<const FoveatedStructure> structures, Downsample downsample);
+                                  std::span<const FoveatedStructure> structures, Downsample downsample,
+                                  std::span<const std::uint64_t> member_keys = {});
 
 }  // namespace mfpc::detail

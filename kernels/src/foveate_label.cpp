@@ -25,28 +25,12 @@ struct RegionTable {
     std::vector<std::uint16_t> rank;   // region r's place in the densest-first order
     std::vector<std::uint16_t> by_rank;
 
-    explicit RegionTable(std::span<const FoveatedStructure> structures) : faces(structures)
+    explicit RegionTable(std::span<const FoveatedStructure> structures)
+        : faces(structures), rank(detail::densest_first_ranks(structures))
     {
         boxes_per_structure = structures[0].levels + 1;
-        const std::size_t region_count = structures.size() * std::size_t(boxes_per_structure);
-        std::vector<float> density(region_count);
-        for (std::size_t s = 0; s < structures.size(); ++s) {
-            for (int k = 0; k < boxes_per_structure; ++k) {
-                density[s * std::size_t(boxes_per_structure) + std::size_t(k)] = structures[s].density(k);
-            }
-        }
-        // Densest first: smaller d_k, then the higher level, then the earlier structure (paper Eq. 6
-        // keeps a point at the densest level covering it; the rest breaks ties deterministically).
-        by_rank.resize(region_count);
-        std::iota(by_rank.begin(), by_rank.end(), std::uint16_t(0));
-        const int bps = boxes_per_structure;
-        std::sort(by_rank.begin(), by_rank.end(), [&](std::uint16_t a, std::uint16_t b) {
-            if (density[a] != density[b]) return density[a] < density[b];
-            if (a % bps != b % bps) return a % bps > b % bps;
-            return a / bps < b / bps;
-        });
-        rank.resize(region_count);
-        for (std::size_t r = 0; r < region_count; ++r) rank[by_rank[r]] = std::uint16_t(r);
+        by_rank.resize(rank.size());
+        for (std::size_t r = 0; r < rank.size(); ++r) by_rank[rank[r]] = std::uint16_t(r);
     }
 
     std::uint16_t region(int structure, int level) const

@@ -302,6 +302,40 @@ TEST(Foveate, OneShotEqualsFoveationOverAWholeIndex)
     expect_same_foveation(foveate(cloud, config, FoveationMode::none), foveate(cloud, PointIndex(cloud), config, FoveationMode::none), "none");
 }
 
+// The one-shot foveate lists no index: it tells downsampling where an index would list each point.
+// The same result as over an index of the whole cloud where that order shows: a fovea that keeps
+// every point (its points come out in index order), densities that are no multiple of the index
+// voxel, and a structure reaching a thousand kilometres out that keeps every point (too many leaves
+// to key: the covered points are then indexed).
+TEST(Foveate, OneShotFollowsTheIndexOrderWithoutAnIndex)
+{
+    const PointCloud cloud = random_cloud_with_attributes(30000, 71);
+    const PointIndex index(cloud);
+    FoveationConfig config;
+    config.structures = random_structures(72, 2, 3);
+    config.structures[0].density_fovea = 0.0f;
+    config.structures[1].density_outer = 0.013f;
+    config.structures[1].density_fovea = 0.0037f;
+    FoveationConfig far = config;
+    far.structures[1].outer_min = Eigen::Vector3f::Constant(-1e6f);
+    far.structures[1].outer_size = Eigen::Vector3f::Constant(2e6f);
+    far.structures[1].fovea_size = Eigen::Vector3f::Constant(0.5f);
+    far.structures[1].fovea_offset = Eigen::Vector3f::Zero();
+    // Every point kept: downsampling voxels would be too many on such a box.
+    far.structures[1].density_outer = 0.0f;
+    far.structures[1].density_fovea = 0.0f;
+    for (const FoveationConfig* c : {&config, &far})
+        for (const Downsample downsample : {Downsample::voxel, Downsample::uniform})
+            for (const FoveationMode mode : {FoveationMode::mfpc, FoveationMode::raw, FoveationMode::single}) {
+                FoveationConfig run = *c;
+                run.downsample = downsample;
+                const std::string what = std::string(c == &far ? "far " : "") + to_string(mode) + " " + to_string(downsample);
+                const FoveatedCloud one_shot = foveate(cloud, run, mode);
+                expect_same_foveation(one_shot, foveate(cloud, index, run, mode), what);
+                EXPECT_GT(one_shot.cloud.size(), 0u) << what;
+            }
+}
+
 // Stray points a thousand kilometres out on every axis (too far apart for the index to number its
 // leaves in 64 bits) change nothing: over an index of the whole cloud, strays included, the result
 // is the one without them.

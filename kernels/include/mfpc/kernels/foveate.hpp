@@ -165,21 +165,21 @@ FoveatedCloud downsample_regions(const PointCloud& cloud, const FoveationRegions
 FoveatedCloud foveate(const PointCloud& cloud, const PointIndex& index, const FoveationConfig& config,
                       FoveationMode mode, int single_structure = 0);
 
-/// @brief The same for one foveation of a cloud with no index at hand: indexes only the points
-/// inside some outer box (the others belong to no region), a fraction of the cost of indexing the
-/// whole cloud when the structures cover a small part of it.
-///
-/// The result is that of foveate() over a default PointIndex of the whole cloud: the covered points
-/// keep their order in it, and how their centroid sums are grouped does not matter (float
-/// coordinates sum exactly in double, but for ones within about 1e-9 of zero beside larger ones).
-/// Reuse an index instead when foveating one cloud several times.
+/// @brief The same for one foveation of a cloud with no index at hand, without building one: each
+/// point is tested against the level boxes in parallel blocks of the cloud, and downsampling is told
+/// where an index would list each covered point (its leaf and voxel, then its number), so that it
+/// emits the same points in the same order as foveate() over a default PointIndex of the whole
+/// cloud. How the centroid sums are grouped does not matter (float coordinates sum exactly in
+/// double, but for ones within about 1e-9 of zero beside larger ones). Structures reaching too far
+/// to number the index's leaves in 64 bits (thousands of kilometres) fall back to indexing the
+/// points inside some outer box. Reuse an index instead when foveating one cloud several times.
 /// @param cloud The cloud.
 /// @param config The structures and the downsampling.
 /// @param mode none, single, raw or mfpc.
 /// @param single_structure The structure foveated in mode single.
-/// @return The foveated cloud, with the time of each step.
-/// @throws mfpc::Error for a cloud check_cloud rejects, for covered points PointIndex refuses, or
-/// as foveation_regions and downsample_regions.
+/// @return The foveated cloud, with the time of each step (label_ms: the labelling pass).
+/// @throws mfpc::Error for a cloud check_cloud rejects, for covered points PointIndex refuses (the
+/// fallback), or as foveation_regions and downsample_regions.
 FoveatedCloud foveate(const PointCloud& cloud, const FoveationConfig& config, FoveationMode mode,
                       int single_structure = 0);
 
