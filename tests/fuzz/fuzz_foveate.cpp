@@ -177,6 +177,19 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
             b.insert({regions.labels[i].structure, regions.labels[i].level, regions.cloud.source_index[i]});
         }
         fuzz::check(a == b, "one-shot foveate keeps other points than the regions");
+        // And in the order of foveate() over an index of the whole cloud (the default voxel, which
+        // the one-shot's order follows), with the same centroids up to how their sums are grouped.
+        const PointIndex whole(cloud);
+        for (const FoveationMode mode : {FoveationMode::mfpc, FoveationMode::raw}) {
+            const FoveatedCloud one_shot = foveate(cloud, config, mode);
+            const FoveatedCloud indexed = foveate(cloud, whole, config, mode);
+            fuzz::check(one_shot.cloud.source_index == indexed.cloud.source_index && one_shot.labels == indexed.labels,
+                        "one-shot foveate keeps its points in another order than over an index");
+            for (std::size_t i = 0; i < one_shot.cloud.size(); ++i)
+                fuzz::check((one_shot.cloud.points[i] - indexed.cloud.points[i]).norm() <=
+                                1e-6f * (1.0f + indexed.cloud.points[i].norm()),
+                            "one-shot foveate puts a centroid elsewhere than over an index");
+        }
     } catch (const Error& error) {
         // The reference accepted every structure and the points are small and finite: the kernels
         // have no reason to refuse.
