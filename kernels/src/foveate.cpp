@@ -14,6 +14,7 @@
 
 namespace mfpc {
 
+using detail::check_single_structure;
 using detail::check_structures;
 using detail::downsample_labelled;
 using detail::label_regions;
@@ -39,6 +40,14 @@ void detail::check_structures(std::span<const FoveatedStructure> structures)
     if (structures.size() * std::size_t(m + 1) >= no_region) {
         throw Error("foveation", std::to_string(structures.size()) + " structures of " + std::to_string(m + 1) +
                                      " levels are more than 65,534 level regions");
+    }
+}
+
+void detail::check_single_structure(std::span<const FoveatedStructure> structures, int single_structure)
+{
+    if (single_structure < 0 || std::size_t(single_structure) >= structures.size()) {
+        throw Error("foveation", "structure " + std::to_string(single_structure) + " does not exist (config has " +
+                                     std::to_string(structures.size()) + ")");
     }
 }
 
@@ -270,11 +279,7 @@ FoveatedCloud foveate(const PointCloud& cloud, const FoveationConfig& config, Fo
     // The labelling below trusts the attribute sizes (the indexed path finds a mismatch in building
     // the index).
     check_cloud(cloud, "foveation");
-    const int structure_count = int(config.structures.size());
-    if (mode == FoveationMode::single && (single_structure < 0 || single_structure >= structure_count)) {
-        throw Error("foveation", "structure " + std::to_string(single_structure) + " does not exist (config has " +
-                                     std::to_string(structure_count) + ")");
-    }
+    if (mode == FoveationMode::single) check_single_structure(config.structures, single_structure);
     // Without an index: each point tested against the boxes, and downsampling told where an index
     // would list each member, so the result is the indexed path's.
     const auto start = std::chrono::steady_clock::now();

@@ -132,6 +132,9 @@ private:
     std::vector<Float4> upper_;
 };
 
+// Throws unless structure `single_structure` exists (mode single).
+void check_single_structure(std::span<const FoveatedStructure> structures, int single_structure);
+
 // Per region r = structure * (m + 1) + level, its place in the densest-first order that redundancy
 // treatment keeps a point by: smaller d_k, then the higher level, then the earlier structure. The
 // structures must have passed check_structures.

@@ -345,10 +345,7 @@ FoveationRegions detail::label_regions(const PointIndex& index, std::span<const 
     if (mode == FoveationMode::none) throw Error("foveation", "mode none has no level regions");
     check_structures(structures);
     const int structure_count = int(structures.size());
-    if (mode == FoveationMode::single && (single_structure < 0 || single_structure >= structure_count)) {
-        throw Error("foveation", "structure " + std::to_string(single_structure) + " does not exist (config has " +
-                                     std::to_string(structure_count) + ")");
-    }
+    if (mode == FoveationMode::single) detail::check_single_structure(structures, single_structure);
 
     FoveationRegions out;
     out.structures = structure_count;
