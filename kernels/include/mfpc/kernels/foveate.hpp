@@ -116,8 +116,9 @@ struct FoveatedCloud {
     std::vector<RegionSummary> regions;  ///< One summary per region.
     std::size_t points_before_downsampling = 0;  ///< Members of all regions together.
     std::size_t redundant_points = 0;  ///< |raw| - |mfpc| before downsampling (see FoveationRegions).
-    /// Wall-clock milliseconds of labelling in the foveate() call that made it (without the
-    /// one-shot foveate's selection and indexing; 0 from downsample_regions and for mode none).
+    /// Wall-clock milliseconds of labelling in the foveate() call that made it (the one-shot
+    /// foveate: its pass over the whole cloud, keys included; without its fallback's selection and
+    /// indexing; 0 from downsample_regions and for mode none).
     double label_ms = 0.0;
     /// Wall-clock milliseconds of downsampling in the foveate() call that made it (0 from
     /// downsample_regions and for mode none).
