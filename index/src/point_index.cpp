@@ -66,7 +66,6 @@ PointIndex::PointIndex(std::span<const Point> points, const PointIndexParams& pa
     // tools::createPointIndexGrid builds; one radix sort by (leaf, voxel, index) builds them in
     // less time and memory than its partitioner.
     const detail::IndexLattice lattice(params.voxel_size);
-    const auto unfloored = [&](const Point& p) { return lattice.unfloored(p); };
     const auto voxel_of = [&](const Point& p) { return lattice.voxel(p); };
     // The conversion is monotonic, so the extreme voxels are those of the bounding box, and
     // checking its corners checks every point. Far inside OpenVDB's 32-bit coordinates, so that
@@ -90,10 +89,7 @@ PointIndex::PointIndex(std::span<const Point> points, const PointIndexParams& pa
             return a;
         });
     const Box& bounds = extent.bounds;
-    constexpr double coordinate_limit = double(1 << 30);
-    const auto reachable = [&](const Point& p) {
-        return unfloored(p).abs().maxCoeff() <= coordinate_limit;
-    };
+    const auto reachable = [&](const Point& p) { return lattice.reaches(p); };
     if (!extent.finite || !reachable(bounds.min) || !reachable(bounds.max)) {
         const auto bad = std::find_if(points.begin(), points.end(),
                                       [&](const Point& p) { return !p.allFinite() || !reachable(p); });
@@ -103,8 +99,8 @@ PointIndex::PointIndex(std::span<const Point> points, const PointIndexParams& pa
     // Leaves numbered row-major over the occupied extent, x slowest: ascending numbers are
     // ascending origins (OpenVDB's Coord order). A voxel's key is its leaf number, then its offset
     // in the leaf (OpenVDB's voxel order).
-    const Eigen::Vector3i lo = voxel_of(bounds.min).unaryExpr([](int c) { return c >> 3; });
-    const Eigen::Vector3i hi = voxel_of(bounds.max).unaryExpr([](int c) { return c >> 3; });
+    const Eigen::Vector3i lo = lattice.leaf(bounds.min);
+    const Eigen::Vector3i hi = lattice.leaf(bounds.max);
     const Eigen::Vector3i span = hi - lo;  // each below 2^28 leaves
     const auto offset_in_leaf = detail::LeafNumbering::offset_in_leaf;
     std::vector<std::uint64_t> keys;

@@ -186,11 +186,9 @@ std::optional<KeyedRegions> keyed_regions(const PointCloud& cloud, std::span<con
     Box outer = bounding_box(std::span<const Point>());
     for (const FoveatedStructure& structure : structures) outer.extend(structure.outer_box());
     // As PointIndex refuses points: farther than 2^30 voxels (or not finite).
-    constexpr double coordinate_limit = double(1 << 30);
-    for (const Point& corner : {outer.min, outer.max})
-        if (!(lattice.unfloored(corner).abs().maxCoeff() <= coordinate_limit)) return std::nullopt;
-    const auto leaf_of = [&](const Point& p) { return lattice.voxel(p).unaryExpr([](int c) { return c >> 3; }).eval(); };
-    const std::optional<detail::LeafNumbering> numbering = detail::LeafNumbering::over(leaf_of(outer.min), leaf_of(outer.max));
+    if (!lattice.reaches(outer.min) || !lattice.reaches(outer.max)) return std::nullopt;
+    const std::optional<detail::LeafNumbering> numbering =
+        detail::LeafNumbering::over(lattice.leaf(outer.min), lattice.leaf(outer.max));
     if (!numbering) return std::nullopt;
 
     const int levels = structures[0].levels;

@@ -242,19 +242,10 @@ RegionOutput downsample_region(const PointCloud& cloud, const RegionMembers& reg
         return slot_for(v, first);
     };
     if (keyed) {
-        // Members in cloud order: neighbours in a scan's rows, often in one voxel, whose slot is
-        // then the last one's.
-        Eigen::Matrix<std::int64_t, 3, 1> last_voxel(-1, -1, -1);
-        std::uint32_t last_slot = 0;
         for (std::size_t j = 0; j < region.count; ++j) {
             const std::uint32_t point = region.members[j];
             const Point& p = cloud.points[point];
-            const Eigen::Matrix<std::int64_t, 3, 1> v = voxel(p);
-            if (v != last_voxel) {
-                last_slot = slot_for(v, point);
-                last_voxel = v;
-            }
-            const std::uint32_t slot = last_slot;
+            const std::uint32_t slot = slot_for(voxel(p), point);
             if (slot == first.size()) first.emplace_back();
             first[slot] = std::min(first[slot], IndexRank{region.keys[j], point});
             add_to(slot, point, p);
@@ -309,23 +300,24 @@ RegionOutput downsample_region(const PointCloud& cloud, const RegionMembers& reg
         }
     }
 
-    // The output order: first occurrence, which is the index's order unless keyed.
-    std::vector<std::uint32_t> order;
-    if (keyed) {
-        order = by_rank(first);
-    } else {
-        order.resize(voxels.size());
-        for (std::size_t v = 0; v < order.size(); ++v) order[v] = std::uint32_t(v);
-    }
+    // The output order: first occurrence, which is the index's order unless keyed (then sorted).
+    const std::vector<std::uint32_t> keyed_order = keyed ? by_rank(first) : std::vector<std::uint32_t>();
+    auto in_order = [&](auto&& emit) {
+        if (keyed) {
+            for (const std::uint32_t v : keyed_order) emit(v);
+        } else {
+            for (std::uint32_t v = 0; v < voxels.size(); ++v) emit(v);
+        }
+    };
     out.points.reserve(voxels.size());
     out.sources.reserve(voxels.size());
-    for (const std::uint32_t v : order) {
+    in_order([&](std::uint32_t v) {
         const Sum& sum = voxels[v];
         out.points.push_back((sum.xyz / double(sum.count)).cast<float>());
         out.sources.push_back(cloud.source_position(sum.first));
-    }
+    });
     if (colors) {
-        for (const std::uint32_t v : order) {
+        in_order([&](std::uint32_t v) {
             const Sum& sum = voxels[v];
             // Rounded to nearest: floor((2 sum + count) / (2 count)). In double, which is exact here
             // and much cheaper than a 64-bit division: both operands are integers below 2^45, and a
@@ -335,7 +327,7 @@ RegionOutput downsample_region(const PointCloud& cloud, const RegionMembers& reg
                 return std::uint8_t((2.0 * double(total) + double(sum.count)) / (2.0 * double(sum.count)));
             };
             out.colors.push_back({mean(sum.rgb[0]), mean(sum.rgb[1]), mean(sum.rgb[2])});
-        }
+        });
     }
     // Normals in a second pass, so clouds without them pay nothing.
     if (normals) {
@@ -344,11 +336,11 @@ RegionOutput downsample_region(const PointCloud& cloud, const RegionMembers& reg
         region.for_each(cloud, [&](std::uint32_t point, const Point&) {
             normal_sums[slot_of[m++]] += cloud.normals[point].cast<double>();
         });
-        for (const std::uint32_t v : order) {
+        in_order([&](std::uint32_t v) {
             const double length = normal_sums[v].norm();
             out.normals.push_back(length > 0.0 ? Point((normal_sums[v] / length).cast<float>())
                                                : cloud.normals[voxels[v].first]);
-        }
+        });
     }
     return out;
 }

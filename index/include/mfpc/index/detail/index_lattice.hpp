@@ -33,11 +33,19 @@ struct IndexLattice {
     {
         return ((p.cast<double>().array() - translation) * inverse + 0.5).eval();
     }
-    // Exact while |unfloored(p)| stays below 2^31; PointIndex keeps it within 2^30.
+    // Whether p is finite and lies within 2^30 voxels of the origin: far inside OpenVDB's 32-bit
+    // coordinates, so that leaf origins and query boxes widened by a voxel cannot overflow.
+    bool reaches(const Point& p) const { return unfloored(p).abs().maxCoeff() <= double(1 << 30); }
+    // Exact while |unfloored(p)| stays below 2^31 (reaches(p) keeps it within 2^30).
     Eigen::Vector3i voxel(const Point& p) const
     {
         const Eigen::Array3d u = unfloored(p);
         return Eigen::Vector3i(floor_to<int>(u.x()), floor_to<int>(u.y()), floor_to<int>(u.z()));
+    }
+    // The leaf (8x8x8 voxels) holding p's voxel.
+    Eigen::Vector3i leaf(const Point& p) const
+    {
+        return voxel(p).unaryExpr([](int c) { return c >> 3; });
     }
 };
 
