@@ -12,7 +12,6 @@
 #include <random>
 
 #include <tbb/global_control.h>
-#include <tbb/info.h>
 
 #include "bench_support.hpp"
 #include "mfpc/core/cloud_io.hpp"
@@ -335,14 +334,7 @@ void configure(benchmark::internal::Benchmark* b, int repetitions = 7, int itera
     }
 }
 
-std::vector<int> thread_counts()
-{
-    std::vector<int> counts;
-    const int cores = tbb::info::default_concurrency();
-    for (int t = 1; t < cores; t *= 2) counts.push_back(t);
-    counts.push_back(cores);
-    return counts;
-}
+using bench::thread_counts;
 
 void register_all()
 {

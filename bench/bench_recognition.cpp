@@ -12,9 +12,10 @@
 //    (match_search; the same correspondences);
 //  - counts (keypoints, correspondences) and the instances each pipeline found, with the
 //    translation of each and its distance to the nearest ground-truth instance.
-// Thread counts: ours under tbb::global_control, PCL's OMP classes (normals, SHOT) with
-// setNumberOfThreads; the rest of PCL's pipeline (uniform sampling, BOARD, matching loop, Hough) is
-// serial, as in the tutorial.
+// Thread counts 1, 2, 4, ... up to the cores present (bench::thread_counts), with a table of each of
+// ours' stages' time and efficiency (speed-up / threads) at each: ours under tbb::global_control,
+// PCL's OMP classes (normals, SHOT) with setNumberOfThreads; the rest of PCL's pipeline (uniform
+// sampling, BOARD, matching loop, Hough) is serial, as in the tutorial.
 // Run: build/release/bench/bench_recognition [--benchmark_repetitions=N] [--benchmark_filter=...]
 
 #include <algorithm>
@@ -299,7 +300,7 @@ void BM_ModelOurs(benchmark::State& state)
     }
 }
 
-const int thread_counts[] = {1, 2};
+using bench::thread_counts;
 const char* scene_names[] = {"milk_cartoon_all_small_clorox", "milk_pair"};
 
 void configure(benchmark::internal::Benchmark* b, int iterations)
@@ -309,7 +310,7 @@ void configure(benchmark::internal::Benchmark* b, int iterations)
 
 void register_all()
 {
-    for (int t : thread_counts) {
+    for (int t : thread_counts()) {
         configure(benchmark::RegisterBenchmark("Model/pcl/threads", BM_ModelPcl)->Arg(t), 2);
         configure(benchmark::RegisterBenchmark("Model/ours/threads", BM_ModelOurs)->Arg(t), 2);
         for (int s = 0; s < 2; ++s) {
@@ -402,6 +403,41 @@ bool same_instances(const Found& a, const Found& b)
     return true;
 }
 
+// ---------------------------------------------------------------------------------------------
+// Thread scaling of ours' scene stages.
+
+void print_scaling(const bench::RecordingReporter& r)
+{
+    std::printf("\n== thread scaling of ours' stages (speed-up = 1-thread time / time; efficiency = speed-up / "
+                "threads) ==\n");
+    const char* const stages[] = {"foveate", "normals", "keypoints", "lrf", "descriptors", "match", "group", "verify"};
+    for (int s = 0; s < 2; ++s) {
+        for (const char* variant : {"plain", "mfpc"}) {
+            std::printf("%s, %s:\n  %-12s", scene_names[s], variant, "stage");
+            for (const int t : thread_counts()) std::printf(" %8s %2d %5s", "ms at", t, "eff");
+            std::printf("\n");
+            auto row = [&](const char* label, auto time_at) {
+                const double one = time_at(1);
+                if (one <= 0) return;
+                std::printf("  %-12s", label);
+                for (const int t : thread_counts()) {
+                    const double ms = time_at(t);
+                    if (ms > 0) {
+                        std::printf(" %11.2f %5.2f", ms, one / ms / t);
+                    } else {
+                        std::printf(" %11s %5s", "-", "");
+                    }
+                }
+                std::printf("\n");
+            };
+            const std::string pipeline = std::string("ours_") + variant;
+            for (const char* stage : stages)
+                row(stage, [&](int t) { return r.counter(bench_name(pipeline, s, t), stage); });
+            row("end to end", [&](int t) { return r.time_ms(bench_name(pipeline, s, t)); });
+        }
+    }
+}
+
 void print_summary(const bench::RecordingReporter& r, const Inputs& in)
 {
     std::printf("\n== recognition: ratios of medians, PCL (correspondence-grouping tutorial) / ours ==\n");
@@ -412,7 +448,7 @@ void print_summary(const bench::RecordingReporter& r, const Inputs& in)
                 "include building the neighbour grids that lrf and descriptors use (PCL builds its kd-trees inside each\n"
                 "stage). PCL's match stage builds its kd-tree; ours scans every pair (match_search \"scan\", the same\n"
                 "correspondences as an exact kd-tree). Of PCL's stages only normals and descriptors use the 2nd thread.\n");
-    for (int t : thread_counts) {
+    for (int t : thread_counts()) {
         const std::string ts = std::to_string(t);
         std::printf("\n-- %d thread(s) --\n", t);
         r.print_ratio("model side (prepared once): PCL / ours", "Model/pcl/threads/" + ts, "Model/ours/threads/" + ts);
@@ -442,7 +478,9 @@ void print_summary(const bench::RecordingReporter& r, const Inputs& in)
         }
     }
 
-    std::printf("\n== what each found (last iteration; 1 thread, with a note where 2 threads differ) ==\n");
+    print_scaling(r);
+
+    std::printf("\n== what each found (last iteration; 1 thread, with a note where another count differs) ==\n");
     std::printf("model: PCL %zu keypoints (%zu with finite SHOT, %zu with finite BOARD); ours %zu valid of %zu\n",
                 in.pcl_model_features.keypoints->size(), count_finite_descriptors(*in.pcl_model_features.descriptors),
                 count_finite_frames(*in.pcl_model_features.frames), in.model.features.size(),
@@ -451,13 +489,15 @@ void print_summary(const bench::RecordingReporter& r, const Inputs& in)
         const Scene& scene = in.scenes[std::size_t(s)];
         std::printf("%s: ground truth %zu instance(s)\n", scene.name.c_str(), scene.truth.instances.size());
         for (const char* pipeline : {"pcl", "ours_tutorial", "ours_plain", "ours_mfpc"}) {
-            print_found(pipeline, run_key(pipeline, scene, thread_counts[0]), scene.truth);
-            const auto one = found_by_run().find(run_key(pipeline, scene, thread_counts[0]));
-            const auto two = found_by_run().find(run_key(pipeline, scene, thread_counts[1]));
-            if (one != found_by_run().end() && two != found_by_run().end() && !same_instances(one->second, two->second)) {
-                std::printf("  %-16s NOTE: instances differ at %d threads:\n", "", thread_counts[1]);
-                print_found(std::string(pipeline) + " x" + std::to_string(thread_counts[1]),
-                            run_key(pipeline, scene, thread_counts[1]), scene.truth);
+            print_found(pipeline, run_key(pipeline, scene, 1), scene.truth);
+            const auto one = found_by_run().find(run_key(pipeline, scene, 1));
+            for (const int t : thread_counts()) {
+                const auto other = found_by_run().find(run_key(pipeline, scene, t));
+                if (t == 1 || one == found_by_run().end() || other == found_by_run().end() ||
+                    same_instances(one->second, other->second))
+                    continue;
+                std::printf("  %-16s NOTE: instances differ at %d threads:\n", "", t);
+                print_found(std::string(pipeline) + " x" + std::to_string(t), run_key(pipeline, scene, t), scene.truth);
             }
         }
     }

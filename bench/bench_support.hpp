@@ -10,8 +10,22 @@
 #include <vector>
 
 #include <benchmark/benchmark.h>
+#include <tbb/info.h>
 
 namespace mfpc::bench {
+
+// The thread counts a scaling table runs: 1, 2, 4, ... and the cores present (on 2 cores: 1, 2).
+inline const std::vector<int>& thread_counts()
+{
+    static const std::vector<int> counts = [] {
+        std::vector<int> c;
+        const int cores = tbb::info::default_concurrency();
+        for (int t = 1; t < cores; t *= 2) c.push_back(t);
+        c.push_back(cores);
+        return c;
+    }();
+    return counts;
+}
 
 // Remembers each benchmark's median real time (ms), or its only run when not repeated.
 class RecordingReporter : public benchmark::ConsoleReporter {
