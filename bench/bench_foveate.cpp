@@ -4,7 +4,9 @@
 //  2. cost with 64 structures against the cost with 2;
 //  3. a 10-million-point cloud re-foveated with moved foveae on a prebuilt index, against the
 //     reference full scan, with the index build time and the crossover;
-//  4. thread scaling of labelling and downsampling (efficiency = speedup / threads).
+//  4. thread scaling of labelling and downsampling (efficiency = speedup / threads);
+//  5. each foveation against its floor: the bytes it must read and write once at this machine's copy
+//     bandwidth, measured in the same run.
 // Run: build/release/bench/bench_foveate [--benchmark_filter=...]
 
 #include <filesystem>
@@ -14,6 +16,7 @@
 #include <tbb/global_control.h>
 
 #include "bench_support.hpp"
+#include "machine_ceilings.hpp"
 #include "mfpc/core/cloud_io.hpp"
 #include "mfpc/core/foveation_config.hpp"
 #include "mfpc/kernels/foveate.hpp"
@@ -361,6 +364,47 @@ void register_all()
     configure(benchmark::RegisterBenchmark("Large/full_scan", BM_Large_FullScan), 3, 2);
 }
 
+// The compulsory work of a foveation: the points it must read (every point of the cloud when no
+// index says which are covered, else the regions' members) and the kept cloud it writes, each once;
+// the arithmetic is the voxel centroids' sums (3 coordinates and 3 colour channels per member), far
+// below the bytes' time.
+bench::StageWork foveation_work(const PointCloud& cloud, const FoveatedCloud& kept, bool whole_cloud)
+{
+    const double per_point = sizeof(Point) + (cloud.colors.empty() ? 0.0 : double(sizeof(Rgb)));
+    const double read = double(whole_cloud ? cloud.size() : kept.points_before_downsampling) * per_point;
+    const double written =
+        double(kept.cloud.size()) * (per_point + sizeof(std::uint32_t) + sizeof(RegionLabel));
+    return {read + written, double(kept.points_before_downsampling) * 6.0};
+}
+
+void print_floors(const bench::RecordingReporter& r)
+{
+    const RealScene* scene = real_scene();
+    const LargeCloud* large = large_cloud();
+    if (!scene || !large) return;
+    std::printf("\n== foveation against this machine's floor (bytes read and written once / copy bandwidth) ==\n");
+    const FoveatedCloud one_shot = foveate(scene->cloud, scene->config, FoveationMode::mfpc);
+    FoveationConfig moved;
+    moved.downsample = Downsample::voxel;
+    moved.structures = large->foveae[0];
+    const FoveatedCloud tile = foveate(large->cloud, *large->index, moved, FoveationMode::mfpc);
+    const std::pair<const char*, bench::StageWork> stages[] = {
+        {"RealScene/one_shot", foveation_work(scene->cloud, one_shot, true)},
+        {"RealScene/ours", foveation_work(scene->cloud, one_shot, false)},
+        {"Large/ours", foveation_work(large->cloud, tile, false)}};
+    for (const int t : thread_counts()) {
+        const bench::Ceilings c = bench::measure_ceilings(t);
+        std::printf("%2d thread(s), copy %.1f GB/s:\n", t, c.bandwidth_gbs);
+        for (const auto& [name, work] : stages) {
+            const double ms = r.time_ms(std::string(name) + "/threads/" + std::to_string(t));
+            if (ms <= 0) continue;
+            const double floor = bench::floor_ms(work, c);
+            std::printf("  %-20s %9.3f ms, floor %8.4f ms (%6.2f MB), time / floor %7.1fx\n", name, ms, floor,
+                        work.bytes * 1e-6, ms / floor);
+        }
+    }
+}
+
 void print_summary(const bench::RecordingReporter& r)
 {
     std::printf("\n== foveation: ratios of medians (baseline / ours) ==\n");
@@ -420,6 +464,7 @@ int main(int argc, char** argv)
     mfpc::bench::RecordingReporter reporter;
     benchmark::RunSpecifiedBenchmarks(&reporter);
     mfpc::print_summary(reporter);
+    mfpc::print_floors(reporter);
     benchmark::Shutdown();
     return 0;
 }

@@ -16,6 +16,9 @@
 // ours' stages' time and efficiency (speed-up / threads) at each: ours under tbb::global_control,
 // PCL's OMP classes (normals, SHOT) with setNumberOfThreads; the rest of PCL's pipeline (uniform
 // sampling, BOARD, matching loop, Hough) is serial, as in the tutorial.
+// Floors (machine_ceilings.hpp): each of ours' scene stages (defaults, plain and mfpc) against the
+// bytes it must read and write once at the copy bandwidth and its formulas' arithmetic at the peak,
+// both measured in this run at each thread count.
 // Run: build/release/bench/bench_recognition [--benchmark_repetitions=N] [--benchmark_filter=...]
 
 #include <algorithm>
@@ -33,10 +36,15 @@
 #include <tbb/global_control.h>
 
 #include "bench_support.hpp"
+#include "machine_ceilings.hpp"
 #include "mfpc/core/cloud_io.hpp"
 #include "mfpc/core/foveation_config.hpp"
 #include "mfpc/core/pcl_adapter.hpp"
 #include "mfpc/core/pose.hpp"
+#include "mfpc/index/neighbor_grid.hpp"
+#include "mfpc/kernels/shot.hpp"
+#include "mfpc/kernels/voxel_grid.hpp"
+#include "mfpc/recognition/described_scene.hpp"
 #include "mfpc/recognition/ground_truth.hpp"
 #include "mfpc/recognition/matching.hpp"
 #include "mfpc/recognition/model.hpp"
@@ -404,7 +412,107 @@ bool same_instances(const Found& a, const Found& b)
 }
 
 // ---------------------------------------------------------------------------------------------
-// Thread scaling of ours' scene stages.
+// Floors and thread scaling of ours' scene stages.
+
+using bench::Ceilings;
+using bench::StageWork;
+
+// The compulsory work of each of ours' scene stages with the built-in defaults, counted (untimed)
+// on the surface the run describes: plain, the scene's voxels at the working resolution; mfpc, the
+// foveated cloud. Bytes: each input read once and each output written once. Flops: the fewest
+// operations of the stage's formulas per element, as below; searches, sorting, branches and
+// bookkeeping count nothing, so the floor is low by design.
+std::map<std::string, StageWork> ours_stage_work(const Inputs& in, int scene_number, bool foveated)
+{
+    const Scene& scene = in.scenes[std::size_t(scene_number)];
+    const RecognitionParams params;
+    SceneFoveation foveation;
+    if (foveated) foveation = SceneFoveation{&scene.config, FoveationMode::mfpc, 0};
+    const std::unique_ptr<DescribedScene> described = describe_scene(scene.cloud, params, foveation);
+    std::vector<Point> resampled;
+    if (!foveated) resampled = voxel_grid(described->scene->points, params.scene.resolution).centroids;
+    const std::span<const Point> surface =
+        foveated ? std::span<const Point>(described->foveated.cloud.points) : std::span<const Point>(resampled);
+    const Features& features = described->features;
+    // Normals are estimated for the surface points within some keypoint's support; frames and
+    // descriptors read every point of each support.
+    const float support = std::max(params.scene.lrf_radius, params.scene.shot_radius);
+    const NeighborGrid grid(surface, support);
+    const Neighborhoods supports = grid.radius_neighborhoods(features.keypoints, support);
+    std::vector<std::uint8_t> has_normal(surface.size(), 0);
+    for (const std::uint32_t i : supports.indices) has_normal[i] = 1;
+    double normals = 0;
+    for (const std::uint8_t h : has_normal) normals += h;
+    const double support_points = double(supports.indices.size());
+    const double keypoints = double(features.size());
+    const double model_keypoints = double(in.model.features.size());
+    const double correspondences =
+        double(recognize(in.model, scene.cloud, params, foveation).counts.correspondences);
+    constexpr double point = sizeof(Point), frame = 9 * sizeof(float), descriptor = shot_size * sizeof(float);
+    const double scene_points = double(scene.cloud.size());
+    const double k = params.scene.normal_k;
+
+    std::map<std::string, StageWork> work;
+    // Normal: per neighbour of the k, its squared distance in the search (8) and its share of the
+    // centroid and the six covariance sums (3 + 12); then a symmetric 3x3 eigenvector (~100).
+    // Plain: also the resampling, which reads the scene once and writes the voxels.
+    work["normals"] = {normals * (point + point), normals * (k * 23.0 + 100.0)};
+    if (!foveated) work["normals"].bytes += scene_points * point + double(surface.size()) * point;
+    // Keypoints (mfpc; plain samples inside normals): the surface read once.
+    if (foveated) work["keypoints"] = {double(surface.size()) * point, 0};
+    // Foveation: the scene read once, the kept points written once.
+    if (foveated) work["foveate"] = {scene_points * point + double(surface.size()) * point, 0};
+    // BOARD: per support point, its distance (5), projection onto the tangent plane (8) and the
+    // angle of its normal (5) plus the running maximum (2); the supports' points and normals read once.
+    work["lrf"] = {normals * 2 * point + keypoints * frame, support_points * 20.0};
+    // SHOT: per support point, its distance (5), coordinates in the frame (15), the cosine of its
+    // normal (5), the bin and interpolation weights (~19) and eight weighted histogram updates (16).
+    work["descriptors"] = {normals * 2 * point + keypoints * (frame + descriptor), support_points * 60.0};
+    // Matching: every model descriptor against every scene descriptor, a 352-term dot product
+    // each (the squared norms aside): 2 flops per term.
+    work["match"] = {(model_keypoints + keypoints) * descriptor + correspondences * sizeof(Correspondence),
+                     model_keypoints * keypoints * double(shot_size) * 2.0};
+    // Grouping: per correspondence, its vote through the two frames (two 3x3 products and a
+    // translation, 45) into 8 interpolated bins (16); keypoints and frames of both read.
+    work["group"] = {correspondences * (sizeof(Correspondence) + 2 * (point + frame)), correspondences * 61.0};
+    return work;
+}
+
+const char* const floor_stages[] = {"foveate", "normals", "keypoints", "lrf", "descriptors", "match", "group"};
+
+void print_floors(const bench::RecordingReporter& r, const Inputs& in)
+{
+    std::printf("\n== ours' scene stages against this machine's floors (built-in defaults) ==\n"
+                "floor = max(bytes read and written once / copy bandwidth, the formulas' flops / peak), both\n"
+                "ceilings measured now with the stage's thread count; time / floor says how far the stage is from\n"
+                "what the machine allows (verification: no floor, its ICP iterations vary per hypothesis)\n");
+    std::map<int, Ceilings> ceilings;
+    for (const int t : thread_counts()) {
+        ceilings[t] = bench::measure_ceilings(t);
+        std::printf("ceilings, %2d thread(s): copy %7.1f GB/s, peak %8.1f GFLOP/s (%s)\n", t, ceilings[t].bandwidth_gbs,
+                    ceilings[t].gflops, ceilings[t].isa);
+    }
+    for (int s = 0; s < 2; ++s) {
+        for (const bool foveated : {false, true}) {
+            const std::map<std::string, StageWork> work = ours_stage_work(in, s, foveated);
+            const char* variant = foveated ? "mfpc" : "plain";
+            for (const int t : thread_counts()) {
+                const std::string name = bench_name(std::string("ours_") + variant, s, t);
+                std::printf("%s, %s, %d thread(s):\n  %-12s %9s %9s %10s %7s %9s %10s\n", scene_names[s], variant, t,
+                            "stage", "ms", "floor ms", "time/floor", "bound", "MB", "MFLOP");
+                for (const char* stage : floor_stages) {
+                    const auto w = work.find(stage);
+                    const double ms = r.counter(name, stage);
+                    if (w == work.end() || ms <= 0) continue;
+                    const double floor = bench::floor_ms(w->second, ceilings[t]);
+                    std::printf("  %-12s %9.3f %9.4f %9.1fx %7s %9.2f %10.2f\n", stage, ms, floor, ms / floor,
+                                bench::floor_bound(w->second, ceilings[t]), w->second.bytes * 1e-6,
+                                w->second.flops * 1e-6);
+                }
+            }
+        }
+    }
+}
 
 void print_scaling(const bench::RecordingReporter& r)
 {
@@ -479,6 +587,7 @@ void print_summary(const bench::RecordingReporter& r, const Inputs& in)
     }
 
     print_scaling(r);
+    print_floors(r, in);
 
     std::printf("\n== what each found (last iteration; 1 thread, with a note where another count differs) ==\n");
     std::printf("model: PCL %zu keypoints (%zu with finite SHOT, %zu with finite BOARD); ours %zu valid of %zu\n",
