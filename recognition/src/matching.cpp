@@ -109,14 +109,18 @@ inline std::size_t whole_tiles(std::size_t count) { return (count + 15) / 16 * 1
 std::vector<float> group_norms(const Features& f, bool tiled)
 {
     std::vector<float> norms((tiled ? whole_tiles(f.size()) : f.size()) * group_count, 0.0f);
-    for (std::size_t i = 0; i < f.size(); ++i) {
-        const auto v = f.descriptor(i);
-        for (std::size_t g = 0; g < group_count; ++g) {
-            float sum = 0.0f;
-            for (std::size_t j = g * group_size; j < (g + 1) * group_size; ++j) sum += v[j] * v[j];
-            norms[tiled ? i / 16 * tile_size + g * 16 + i % 16 : i * group_count + g] = std::sqrt(sum);
+    // In parallel: a scene's descriptors are megabytes, and a serial pass over them was a sixth
+    // of the scan's time at 1 thread.
+    tbb::parallel_for(tbb::blocked_range<std::size_t>(0, f.size(), 256), [&](const auto& range) {
+        for (std::size_t i = range.begin(); i < range.end(); ++i) {
+            const auto v = f.descriptor(i);
+            for (std::size_t g = 0; g < group_count; ++g) {
+                float sum = 0.0f;
+                for (std::size_t j = g * group_size; j < (g + 1) * group_size; ++j) sum += v[j] * v[j];
+                norms[tiled ? i / 16 * tile_size + g * 16 + i % 16 : i * group_count + g] = std::sqrt(sum);
+            }
         }
-    }
+    });
     return norms;
 }
 
@@ -203,10 +207,12 @@ void scan_nearest(const Features& data, const Features& queries, int k, float th
     // Padded with zeros to `size`.
     const auto squared_norms = [](const Features& f, std::size_t size) {
         std::vector<float> norms(size, 0.0f);
-        for (std::size_t i = 0; i < f.size(); ++i) {
-            const auto v = f.descriptor(i);
-            norms[i] = std::inner_product(v.begin(), v.end(), v.begin(), 0.0f);
-        }
+        tbb::parallel_for(tbb::blocked_range<std::size_t>(0, f.size(), 256), [&](const auto& range) {
+            for (std::size_t i = range.begin(); i < range.end(); ++i) {
+                const auto v = f.descriptor(i);
+                norms[i] = std::inner_product(v.begin(), v.end(), v.begin(), 0.0f);
+            }
+        });
         return norms;
     };
     const std::vector<float> query_groups = group_norms(queries, false);
