@@ -36,8 +36,12 @@ void normals_from(std::span<const Point> queries, const Source& source, const No
         return;
     }
     // Neighbours in batches (a grid's queries that share a cell share their candidates; the depth
-    // image's prefetch ahead), then one PCA per query; batches bound the neighbour buffer.
-    constexpr std::size_t batch = 1 << 16;
+    // image's prefetch ahead), then one PCA per query; batches bound the neighbour buffer. 2^14
+    // queries (about 2 MB of buffers at k = 30) keep it in cache and its pages few: a fresh page
+    // costs microseconds on a virtual machine, and at 2^16 (8 MB a buffer, faulted in on each
+    // call) recognize()'s normals took 1.6-1.8 times longer on milk_pair; 2^12 and 2^13 pay the
+    // batch searches' set-up more often.
+    constexpr std::size_t batch = 1 << 14;
     std::vector<std::uint32_t> neighbours(std::min(batch, queries.size()) * k);
     std::vector<float> squared_distances(neighbours.size());
     for (std::size_t offset = 0; offset < queries.size(); offset += batch) {
