@@ -5,8 +5,10 @@
 // the medians of the repetitions:
 //  - end to end (scene side): PCL / ours plain (defaults: refine and verify on), PCL / ours
 //    like-for-like (refine and verify off; PCL has neither), PCL / ours tutorial-matching (also
-//    scene-to-model nearest neighbour, as PCL), and PCL plain / ours mfpc (foveated scene);
-//  - per stage: normals, keypoints, descriptors, lrf, match, group (and ours' foveate, verify);
+//    scene-to-model nearest neighbour, as PCL), PCL plain / ours mfpc (the scene foveated on
+//    hand-placed structures) and PCL plain / ours auto (on the structures automatic placement
+//    proposes, placement included);
+//  - per stage: normals, keypoints, descriptors, lrf, match, group (and ours' place, foveate, verify);
 //  - the model side (prepared once, outside the timed loops), PCL / ours;
 //  - the match stage alone on ours' plain and mfpc descriptors: FLANN's exact kd-tree / our scan
 //    (match_search; the same correspondences);
@@ -48,6 +50,7 @@
 #include "mfpc/recognition/ground_truth.hpp"
 #include "mfpc/recognition/matching.hpp"
 #include "mfpc/recognition/model.hpp"
+#include "mfpc/recognition/placement.hpp"
 #include "mfpc/recognition/recognize.hpp"
 #include "pcl_baseline.hpp"
 #include "shared_data.hpp"
@@ -156,9 +159,11 @@ std::map<std::string, Found>& found_by_run()
 // medians over the repetitions the reporter keeps.
 
 // plain: the built-in defaults; tutorial: PCL's own parameters and algorithm choices, without
-// refinement and verification (like for like with PCL); mfpc: the defaults on the foveated scene.
-enum class Variant { plain, tutorial, mfpc };
-constexpr const char* variant_names[] = {"plain", "tutorial", "mfpc"};
+// refinement and verification (like for like with PCL); mfpc: the defaults on the foveated scene
+// (hand-placed structures); auto: the defaults on the structures automatic placement proposes
+// (the default strategy, segments), the placement timed with the run.
+enum class Variant { plain, tutorial, mfpc, automatic };
+constexpr const char* variant_names[] = {"plain", "tutorial", "mfpc", "auto"};
 
 // Per-stage milliseconds of one run, as (counter name, value).
 using StageTimes = std::vector<std::pair<const char*, double>>;
@@ -171,7 +176,7 @@ StageTimes stage_times(const PclStageTimes& t)
 
 StageTimes stage_times(const RecognitionTimings& t)
 {
-    return {{"foveate", t.foveate}, {"normals", t.normals}, {"keypoints", t.keypoints},
+    return {{"place", t.place},     {"foveate", t.foveate}, {"normals", t.normals}, {"keypoints", t.keypoints},
             {"descriptors", t.descriptors}, {"lrf", t.lrf}, {"match", t.match},
             {"group", t.group},     {"verify", t.verify}};
 }
@@ -239,8 +244,19 @@ void BM_Ours(benchmark::State& state, Variant variant, int scene_number)
 
     StageCounters counters;
     RecognitionResult last;
+    const Model* const models[] = {&model};
     for (auto _ : state) {
-        last = recognize(model, scene.cloud, params, foveation);
+        if (variant == Variant::automatic) {
+            // A placement that places nothing leaves the scene to the plain pipeline, as in `mfpc`.
+            const PlacementResult placement = place_foveae(scene.cloud, models, params, PlacementParams{});
+            const bool placed = !placement.config.structures.empty();
+            foveation = SceneFoveation{placed ? &placement.config : nullptr,
+                                       placed ? FoveationMode::mfpc : FoveationMode::none, 0};
+            last = recognize(model, scene.cloud, params, foveation);
+            last.timings.place = placement.ms;
+        } else {
+            last = recognize(model, scene.cloud, params, foveation);
+        }
         counters.add(stage_times(last.timings));
     }
     counters.report(state);
@@ -324,7 +340,7 @@ void register_all()
         for (int s = 0; s < 2; ++s) {
             const std::string scene = scene_names[s];
             configure(benchmark::RegisterBenchmark(("Scene/pcl/" + scene + "/threads").c_str(), BM_Pcl, s)->Arg(t), 1);
-            for (Variant v : {Variant::plain, Variant::tutorial, Variant::mfpc}) {
+            for (Variant v : {Variant::plain, Variant::tutorial, Variant::mfpc, Variant::automatic}) {
                 const std::string name = "Scene/ours_" + std::string(variant_names[int(v)]) + "/" + scene + "/threads";
                 configure(benchmark::RegisterBenchmark(name.c_str(), BM_Ours, v, s)->Arg(t), 1);
             }
@@ -518,9 +534,9 @@ void print_scaling(const bench::RecordingReporter& r)
 {
     std::printf("\n== thread scaling of ours' stages (speed-up = 1-thread time / time; efficiency = speed-up / "
                 "threads) ==\n");
-    const char* const stages[] = {"foveate", "normals", "keypoints", "lrf", "descriptors", "match", "group", "verify"};
+    const char* const stages[] = {"place", "foveate", "normals", "keypoints", "lrf", "descriptors", "match", "group", "verify"};
     for (int s = 0; s < 2; ++s) {
-        for (const char* variant : {"plain", "mfpc"}) {
+        for (const char* variant : {"plain", "mfpc", "auto"}) {
             std::printf("%s, %s:\n  %-12s", scene_names[s], variant, "stage");
             for (const int t : thread_counts()) std::printf(" %8s %2d %5s", "ms at", t, "eff");
             std::printf("\n");
@@ -551,7 +567,8 @@ void print_summary(const bench::RecordingReporter& r, const Inputs& in)
     std::printf("\n== recognition: ratios of medians, PCL (correspondence-grouping tutorial) / ours ==\n");
     std::printf("ours plain: built-in defaults (larger supports, model-to-scene k=10 matching, refine + verify);\n"
                 "tutorial: PCL's parameters (examples/params/pcl_tutorial.json), no refine/verify: like for like;\n"
-                "mfpc: built-in defaults on the foveated scene\n"
+                "mfpc: built-in defaults on the scene foveated on hand-placed structures; auto: on the structures\n"
+                "automatic placement (segments) proposes, placement included\n"
                 "stages: PCL normals are of every scene point; ours of the points in some keypoint's support, and\n"
                 "include building the neighbour grids that lrf and descriptors use (PCL builds its kd-trees inside each\n"
                 "stage). PCL's match stage builds its kd-tree; ours scans every pair (match_search \"scan\", the same\n"
@@ -566,10 +583,12 @@ void print_summary(const bench::RecordingReporter& r, const Inputs& in)
             r.print_ratio("  end to end: PCL / ours tutorial (like for like)", pcl, bench_name("ours_tutorial", s, t));
             r.print_ratio("  end to end: PCL / ours plain (defaults)", pcl, bench_name("ours_plain", s, t));
             r.print_ratio("  end to end: PCL plain / ours mfpc (defaults)", pcl, bench_name("ours_mfpc", s, t));
+            r.print_ratio("  end to end: PCL plain / ours auto (placement included)", pcl, bench_name("ours_auto", s, t));
             const std::vector<std::string> ours = {bench_name("ours_tutorial", s, t), bench_name("ours_plain", s, t),
-                                                   bench_name("ours_mfpc", s, t)};
-            std::printf("  %-12s %9s %9s %8s %9s %8s %9s %8s\n", "stage (ms)", "PCL", "tutorial", "PCL/tut",
-                        "plain", "PCL/pl", "mfpc", "PCL/mfpc");
+                                                   bench_name("ours_mfpc", s, t), bench_name("ours_auto", s, t)};
+            std::printf("  %-12s %9s %9s %8s %9s %8s %9s %8s %9s %8s\n", "stage (ms)", "PCL", "tutorial", "PCL/tut",
+                        "plain", "PCL/pl", "mfpc", "PCL/mfpc", "auto", "PCL/auto");
+            print_stage_row(r, "place", pcl, nullptr, ours, "place");
             print_stage_row(r, "foveate", pcl, nullptr, ours, "foveate");
             print_stage_row(r, "normals", pcl, "normals", ours, "normals");
             print_stage_row(r, "keypoints", pcl, "keypoints", ours, "keypoints");
@@ -597,7 +616,7 @@ void print_summary(const bench::RecordingReporter& r, const Inputs& in)
     for (int s = 0; s < 2; ++s) {
         const Scene& scene = in.scenes[std::size_t(s)];
         std::printf("%s: ground truth %zu instance(s)\n", scene.name.c_str(), scene.truth.instances.size());
-        for (const char* pipeline : {"pcl", "ours_tutorial", "ours_plain", "ours_mfpc"}) {
+        for (const char* pipeline : {"pcl", "ours_tutorial", "ours_plain", "ours_mfpc", "ours_auto"}) {
             print_found(pipeline, run_key(pipeline, scene, 1), scene.truth);
             const auto one = found_by_run().find(run_key(pipeline, scene, 1));
             for (const int t : thread_counts()) {
