@@ -147,7 +147,16 @@ std::vector<std::vector<std::uint32_t>> clusters_of(std::span<const Point> point
     };
     // Cells in 64 bits: a point voxel_grid accepts may lie 2^30 voxels out, beyond an int's cells.
     using Cell = Eigen::Matrix<std::int64_t, 3, 1>;
-    auto cell_of = [&](const Point& p) { return Cell((p.cast<double>() / double(gap)).array().floor().cast<std::int64_t>()); };
+    // floor() by truncation (std::floor is a call without SSE4.1). Any cells of edge >= gap serve:
+    // the components are those of the distance test, whichever cells hold the points.
+    auto floor_of = [](double x) {
+        const auto t = std::int64_t(x);
+        return t - std::int64_t(x < double(t));
+    };
+    auto cell_of = [&](const Point& p) {
+        return Cell(floor_of(double(p.x()) / double(gap)), floor_of(double(p.y()) / double(gap)),
+                    floor_of(double(p.z()) / double(gap)));
+    };
     // Cells that share a key share a list; every pair in it is checked by distance all the same.
     auto key_of = [](const Cell& c) {
         return (std::uint64_t(c.x()) & 0x1fffff) << 42 | (std::uint64_t(c.y()) & 0x1fffff) << 21 |
@@ -169,26 +178,47 @@ std::vector<std::vector<std::uint32_t>> clusters_of(std::span<const Point> point
     for (std::size_t c = 0; c < count.size(); ++c) start[c + 1] = start[c] + count[c];
     std::vector<std::uint32_t> by_cell(members.size());
     std::vector<std::uint32_t> cursor(start.begin(), start.end() - 1);
-    for (std::uint32_t i = 0; i < members.size(); ++i) by_cell[cursor[cell_number[i]]++] = i;
-    // Each pair once: within a cell's list the later members, else the 13 neighbour cells after
-    // a member's own (offsets above zero, in x then y then z); the pair's other member would find
-    // this one in a cell before its own. The lower index roots, so the components are the same
-    // whatever the order of the joins.
+    std::vector<Cell> cell_at(count.size());  // each numbered cell's coordinates
     for (std::uint32_t i = 0; i < members.size(); ++i) {
-        const Point& p = points[members[i]];
+        by_cell[cursor[cell_number[i]]++] = i;
+        cell_at[cell_number[i]] = cell[i];
+    }
+    // The 13 neighbour cells after each cell (offsets above zero, in x then y then z), looked up
+    // once per cell rather than once per member.
+    constexpr int forward = 13;
+    std::vector<std::uint32_t> neighbours(count.size() * forward, detail::SlotTable::none);
+    for (std::size_t c = 0; c < count.size(); ++c) {
+        int n = 0;
         for (int dx = 0; dx <= 1; ++dx)
             for (int dy = dx ? -1 : 0; dy <= 1; ++dy)
-                for (int dz = dx || dy ? -1 : 0; dz <= 1; ++dz) {
-                    const bool own = !dx && !dy && !dz;
-                    const std::uint32_t near = own ? cell_number[i] : table.find(key_of(cell[i] + Cell(dx, dy, dz)));
-                    if (near == detail::SlotTable::none) continue;
-                    for (std::uint32_t k = start[near]; k < start[near + 1]; ++k) {
-                        const std::uint32_t j = by_cell[k];
-                        if ((own && j <= i) || ((points[members[j]] - p).cwiseAbs().array() > gap).any()) continue;
-                        const std::uint32_t a = root(i), b = root(j);
-                        if (a != b) parent[std::max(a, b)] = std::min(a, b);
-                    }
-                }
+                for (int dz = dx || dy ? -1 : 0; dz <= 1; ++dz)
+                    if (dx || dy || dz) neighbours[c * forward + n++] = table.find(key_of(cell_at[c] + Cell(dx, dy, dz)));
+    }
+    // The lower index roots, so the components are the same whatever the order of the joins.
+    auto join = [&](std::uint32_t i, std::uint32_t j) {
+        const std::uint32_t a = root(i), b = root(j);
+        if (a != b) parent[std::max(a, b)] = std::min(a, b);
+    };
+    // Two points of one cell (edge gap) are less than gap apart on every axis: each cell is one
+    // piece of a component, joined to its first member.
+    for (std::size_t c = 0; c < count.size(); ++c)
+        for (std::uint32_t k = start[c] + 1; k < start[c + 1]; ++k) join(by_cell[start[c]], by_cell[k]);
+    // Then each member against the 13 neighbour cells after its own (a pair's other member would
+    // find this one in a cell before its own): one point of such a cell within gap joins the whole
+    // cell, and a cell already in the member's component needs no test.
+    for (std::uint32_t i = 0; i < members.size(); ++i) {
+        const Point& p = points[members[i]];
+        const std::uint32_t own = cell_number[i];
+        for (int n = 0; n < forward; ++n) {
+            const std::uint32_t near = neighbours[std::size_t(own) * forward + std::size_t(n)];
+            if (near == detail::SlotTable::none || root(i) == root(by_cell[start[near]])) continue;
+            for (std::uint32_t k = start[near]; k < start[near + 1]; ++k) {
+                const std::uint32_t j = by_cell[k];
+                if (((points[members[j]] - p).cwiseAbs().array() > gap).any()) continue;
+                join(i, j);
+                break;
+            }
+        }
     }
     std::vector<std::vector<std::uint32_t>> clusters;
     std::vector<std::int64_t> slot(members.size(), -1);
