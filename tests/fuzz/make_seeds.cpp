@@ -274,7 +274,7 @@ void png_seeds()
 void byte_seeds()
 {
     const char* targets[] = {"fuzz_foveate", "fuzz_descriptors", "fuzz_cloud_stats", "fuzz_recognize",
-                             "fuzz_render", "fuzz_scanner", "fuzz_organized_nearest"};
+                             "fuzz_render", "fuzz_scanner", "fuzz_organized_nearest", "fuzz_placement"};
     std::mt19937 rng(32);
     for (const char* target : targets) {
         for (const std::size_t size : {64u, 600u, 1800u}) {
