@@ -15,10 +15,10 @@
 #include <nlohmann/json.hpp>
 #include <tbb/parallel_for.h>
 
-#include "mfpc/core/detail/slot_table.hpp"
 #include "mfpc/core/error.hpp"
 #include "mfpc/kernels/voxel_grid.hpp"
 #include "mfpc/recognition/described_scene.hpp"
+#include "clusters.hpp"
 #include "json_fields.hpp"
 
 namespace mfpc {
@@ -133,106 +133,6 @@ std::vector<std::uint32_t> best_plane_inliers(std::span<const Point> points, std
     return inliers_of(fit_plane(points, inliers_of(plane), nullptr));
 }
 
-// Connected components of the voxels `members` names: two join when they lie within `gap` of
-// each other on every axis. Components come in the order of their lowest voxel, each listing its
-// voxels in increasing order.
-std::vector<std::vector<std::uint32_t>> clusters_of(std::span<const Point> points,
-                                                    std::span<const std::uint32_t> members, float gap)
-{
-    std::vector<std::uint32_t> parent(members.size());
-    std::iota(parent.begin(), parent.end(), 0u);
-    auto root = [&](std::uint32_t i) {
-        while (parent[i] != i) i = parent[i] = parent[parent[i]];
-        return i;
-    };
-    // Cells in 64 bits: a point voxel_grid accepts may lie 2^30 voxels out, beyond an int's cells.
-    using Cell = Eigen::Matrix<std::int64_t, 3, 1>;
-    // floor() by truncation (std::floor is a call without SSE4.1). Any cells of edge >= gap serve:
-    // the components are those of the distance test, whichever cells hold the points.
-    auto floor_of = [](double x) {
-        const auto t = std::int64_t(x);
-        return t - std::int64_t(x < double(t));
-    };
-    auto cell_of = [&](const Point& p) {
-        return Cell(floor_of(double(p.x()) / double(gap)), floor_of(double(p.y()) / double(gap)),
-                    floor_of(double(p.z()) / double(gap)));
-    };
-    // Cells that share a key share a list; every pair in it is checked by distance all the same.
-    auto key_of = [](const Cell& c) {
-        return (std::uint64_t(c.x()) & 0x1fffff) << 42 | (std::uint64_t(c.y()) & 0x1fffff) << 21 |
-               (std::uint64_t(c.z()) & 0x1fffff);
-    };
-    // The cells numbered as first met, and each cell's members side by side in increasing order (a
-    // counting sort): a flat table, where a map of lists spent most of the search allocating them.
-    std::vector<Cell> cell(members.size());
-    std::vector<std::uint32_t> cell_number(members.size()), count;
-    detail::SlotTable table(members.size());
-    for (std::uint32_t i = 0; i < members.size(); ++i) {
-        cell[i] = cell_of(points[members[i]]);
-        const auto [number, added] = table.find_or_add(key_of(cell[i]), std::uint32_t(count.size()));
-        if (added) count.push_back(0);
-        ++count[number];
-        cell_number[i] = number;
-    }
-    std::vector<std::uint32_t> start(count.size() + 1, 0);
-    for (std::size_t c = 0; c < count.size(); ++c) start[c + 1] = start[c] + count[c];
-    std::vector<std::uint32_t> by_cell(members.size());
-    std::vector<std::uint32_t> cursor(start.begin(), start.end() - 1);
-    std::vector<Cell> cell_at(count.size());  // each numbered cell's coordinates
-    for (std::uint32_t i = 0; i < members.size(); ++i) {
-        by_cell[cursor[cell_number[i]]++] = i;
-        cell_at[cell_number[i]] = cell[i];
-    }
-    // The 13 neighbour cells after each cell (offsets above zero, in x then y then z), looked up
-    // once per cell rather than once per member.
-    constexpr int forward = 13;
-    std::vector<std::uint32_t> neighbours(count.size() * forward, detail::SlotTable::none);
-    for (std::size_t c = 0; c < count.size(); ++c) {
-        int n = 0;
-        for (int dx = 0; dx <= 1; ++dx)
-            for (int dy = dx ? -1 : 0; dy <= 1; ++dy)
-                for (int dz = dx || dy ? -1 : 0; dz <= 1; ++dz)
-                    if (dx || dy || dz) neighbours[c * forward + n++] = table.find(key_of(cell_at[c] + Cell(dx, dy, dz)));
-    }
-    // The lower index roots, so the components are the same whatever the order of the joins.
-    auto join = [&](std::uint32_t i, std::uint32_t j) {
-        const std::uint32_t a = root(i), b = root(j);
-        if (a != b) parent[std::max(a, b)] = std::min(a, b);
-    };
-    // Two points of one cell (edge gap) are less than gap apart on every axis: each cell is one
-    // piece of a component, joined to its first member.
-    for (std::size_t c = 0; c < count.size(); ++c)
-        for (std::uint32_t k = start[c] + 1; k < start[c + 1]; ++k) join(by_cell[start[c]], by_cell[k]);
-    // Then each member against the 13 neighbour cells after its own (a pair's other member would
-    // find this one in a cell before its own): one point of such a cell within gap joins the whole
-    // cell, and a cell already in the member's component needs no test.
-    for (std::uint32_t i = 0; i < members.size(); ++i) {
-        const Point& p = points[members[i]];
-        const std::uint32_t own = cell_number[i];
-        for (int n = 0; n < forward; ++n) {
-            const std::uint32_t near = neighbours[std::size_t(own) * forward + std::size_t(n)];
-            if (near == detail::SlotTable::none || root(i) == root(by_cell[start[near]])) continue;
-            for (std::uint32_t k = start[near]; k < start[near + 1]; ++k) {
-                const std::uint32_t j = by_cell[k];
-                if (((points[members[j]] - p).cwiseAbs().array() > gap).any()) continue;
-                join(i, j);
-                break;
-            }
-        }
-    }
-    std::vector<std::vector<std::uint32_t>> clusters;
-    std::vector<std::int64_t> slot(members.size(), -1);
-    for (std::uint32_t i = 0; i < members.size(); ++i) {
-        const std::uint32_t r = root(i);
-        if (slot[r] < 0) {
-            slot[r] = std::int64_t(clusters.size());
-            clusters.emplace_back();
-        }
-        clusters[std::size_t(slot[r])].push_back(members[i]);
-    }
-    return clusters;
-}
-
 float largest_extent(std::span<const Model* const> models)
 {
     float extent = 0;
@@ -256,7 +156,7 @@ std::vector<Box> segment_clusters(std::span<const Point> voxels, std::span<const
         std::vector<std::uint32_t> inliers = best_plane_inliers(voxels, left, params, 0x9e3779b9u + std::uint32_t(p));
         // A support is one connected piece of the plane: the plane through a carton's face also
         // passes through scattered voxels across the room, which would make the face look wide.
-        std::vector<std::vector<std::uint32_t>> pieces = clusters_of(voxels, inliers, params.cluster_gap);
+        std::vector<std::vector<std::uint32_t>> pieces = detail::clusters_of(voxels, inliers, params.cluster_gap);
         if (pieces.empty()) break;
         inliers = std::move(*std::max_element(pieces.begin(), pieces.end(), [](const auto& a, const auto& b) {
             return a.size() < b.size();
@@ -274,7 +174,7 @@ std::vector<Box> segment_clusters(std::span<const Point> voxels, std::span<const
         ++result.planes;
     }
     std::vector<Box> objects;
-    for (const auto& cluster : clusters_of(voxels, left, params.cluster_gap)) {
+    for (const auto& cluster : detail::clusters_of(voxels, left, params.cluster_gap)) {
         if (cluster.size() < min_voxels) continue;
         ++result.clusters;
         Box box = bounding_box({});
