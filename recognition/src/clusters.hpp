@@ -14,7 +14,7 @@ namespace mfpc::detail {
 // Connected components of the (finite) points `members` names: two join when they lie within `gap` of each
 // other on every axis (|a - b| <= gap per coordinate, as float arithmetic gives it). Components
 // come in the order of their lowest member, each listing its members in increasing order. Exactly
-// the components of that pairwise test, found through cells of edge `gap`.
+// the components of that pairwise test, found through cells a hair wider than `gap`.
 std::vector<std::vector<std::uint32_t>> clusters_of(std::span<const Point> points,
                                                     std::span<const std::uint32_t> members, float gap);
 
