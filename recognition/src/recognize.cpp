@@ -154,25 +154,25 @@ std::unique_ptr<DescribedScene> describe_scene(const PointCloud& input, const Re
 }
 
 RecognitionResult recognize_described(const DescribedScene& described, const Model& model,
-                                      std::vector<Instance>* hypotheses)
+                                      std::vector<Instance>* hypotheses, SceneFeatures features)
 {
     const auto start = Clock::now();
     const RecognitionParams& params = described.params;
     RecognitionResult result;
-    result.scene_features = described.features;
+    if (features == SceneFeatures::copied) result.scene_features = described.features;
     result.counts = described.counts;
     result.counts.model_keypoints = model.features.size();
     result.counts.model_keypoints_invalid = model.features.invalid;
 
     auto t = Clock::now();
-    result.correspondences = match_descriptors(model.features, result.scene_features, params.match);
+    result.correspondences = match_descriptors(model.features, described.features, params.match);
     result.counts.correspondences = result.correspondences.size();
     result.timings.match = elapsed_ms(t);
 
     t = Clock::now();
     result.instances = params.grouping.method == Grouping::hough
-                           ? hough_grouping(model.features, result.scene_features, result.correspondences, params.grouping)
-                           : gc_grouping(model.features, result.scene_features, result.correspondences, params.grouping);
+                           ? hough_grouping(model.features, described.features, result.correspondences, params.grouping)
+                           : gc_grouping(model.features, described.features, result.correspondences, params.grouping);
     result.counts.instances_before_verification = result.instances.size();
     result.timings.group = elapsed_ms(t);
     if (hypotheses) *hypotheses = result.instances;
@@ -199,7 +199,10 @@ RecognitionResult recognize_once(const Model& model, const PointCloud& scene, co
 {
     const auto start = Clock::now();
     std::unique_ptr<DescribedScene> described = describe_scene(scene, params, foveation);
-    RecognitionResult result = recognize_described(*described, model, trace ? &trace->hypotheses : nullptr);
+    // The scene's features are moved into the result unless the trace keeps the described scene.
+    RecognitionResult result = recognize_described(*described, model, trace ? &trace->hypotheses : nullptr,
+                                                   trace ? SceneFeatures::copied : SceneFeatures::left_out);
+    if (!trace) result.scene_features = std::move(described->features);
     // One model: the scene's stages and the model's as one run, the evidence counted as verification.
     const RecognitionTimings& scene_timings = described->timings;
     result.timings.foveate = scene_timings.foveate;
@@ -234,7 +237,7 @@ std::vector<RecognitionResult> recognize_models(std::span<const Model* const> mo
 {
     for (const Model* model : models)
         if (model == nullptr) throw Error("recognize", "a model to recognise is missing (null)");
-    const std::unique_ptr<DescribedScene> described = describe_scene(scene, params, foveation);
+    std::unique_ptr<DescribedScene> described = describe_scene(scene, params, foveation);
     if (scene_timings) {
         *scene_timings = described->timings;
         scene_timings->verify = described->evidence_ms;
@@ -243,7 +246,13 @@ std::vector<RecognitionResult> recognize_models(std::span<const Model* const> mo
     // across threads, and results come out in the models' order whatever the threads.
     std::vector<RecognitionResult> results;
     results.reserve(models.size());
-    for (const Model* model : models) results.push_back(recognize_described(*described, *model));
+    // Each result holds the scene's features: copies, and the last model's moved in.
+    for (std::size_t m = 0; m < models.size(); ++m) {
+        const bool last = m + 1 == models.size();
+        results.push_back(recognize_described(*described, *models[m], nullptr,
+                                              last ? SceneFeatures::left_out : SceneFeatures::copied));
+        if (last) results.back().scene_features = std::move(described->features);
+    }
     return results;
 }
 

@@ -18,6 +18,7 @@
 #include "mfpc/index/organized_neighbors.hpp"
 #include "mfpc/kernels/shot.hpp"
 #include "mfpc/kernels/uniform_sampling.hpp"
+#include "mfpc/recognition/described_scene.hpp"
 #include "mfpc/recognition/evaluation.hpp"
 #include "mfpc/recognition/features.hpp"
 #include "mfpc/recognition/grouping.hpp"
@@ -550,6 +551,40 @@ TEST(Recognize, BitIdenticalAcrossThreadCounts)
                                  16 * sizeof(float)));
         EXPECT_EQ(results[0].instances[i].fitness, results[1].instances[i].fitness);
     }
+}
+
+// Several models on one description: each result holds the scene's features (copied, the last
+// moved in) as recognize() of its model alone does, with the same instances; a result that leaves
+// the features out (the batch's) finds the same instances without them.
+TEST(Recognize, EveryModelsResultHoldsTheScenesFeaturesUnlessLeftOut)
+{
+    MFPC_SHARED_FILE_OR_SKIP(model_path, "milk.pcd");
+    MFPC_SHARED_FILE_OR_SKIP(scene_path, "milk_pair.pcd");
+    const RecognitionParams params;
+    const Model model = prepare_model(read_cloud(model_path), params.model, "milk.pcd");
+    const PointCloud scene = read_cloud(scene_path);
+    const RecognitionResult alone = recognize(model, scene, params);
+    ASSERT_FALSE(alone.scene_features.keypoints.empty());
+    const Model* const twice[] = {&model, &model};
+    const std::vector<RecognitionResult> both = recognize_models(twice, scene, params);
+    ASSERT_EQ(both.size(), 2u);
+    for (const RecognitionResult& result : both) {
+        EXPECT_EQ(result.scene_features.keypoints, alone.scene_features.keypoints);
+        EXPECT_EQ(result.scene_features.descriptors, alone.scene_features.descriptors);
+        EXPECT_EQ(result.correspondences, alone.correspondences);
+        ASSERT_EQ(result.instances.size(), alone.instances.size());
+        for (std::size_t i = 0; i < alone.instances.size(); ++i)
+            EXPECT_TRUE(result.instances[i].transform.matrix() == alone.instances[i].transform.matrix());
+    }
+    const std::unique_ptr<DescribedScene> described = describe_scene(scene, params);
+    const RecognitionResult left_out = recognize_described(*described, model, nullptr, SceneFeatures::left_out);
+    EXPECT_TRUE(left_out.scene_features.keypoints.empty());
+    EXPECT_TRUE(left_out.scene_features.descriptors.empty());
+    EXPECT_EQ(described->features.descriptors, alone.scene_features.descriptors);  // the description is kept
+    EXPECT_EQ(left_out.correspondences, alone.correspondences);
+    ASSERT_EQ(left_out.instances.size(), alone.instances.size());
+    for (std::size_t i = 0; i < alone.instances.size(); ++i)
+        EXPECT_TRUE(left_out.instances[i].transform.matrix() == alone.instances[i].transform.matrix());
 }
 
 // Verification that finds its scene points in the depth image first gives the grid's answers:

@@ -199,7 +199,8 @@ SceneRecord recognize_scene(const BatchJob& job, std::size_t index, PlacementTra
         std::vector<PlacedInstance> found;
         for (std::size_t m = 0; m < job.models.size(); ++m) {
             const BatchModel& model = job.models[m];
-            const RecognitionResult result = recognize_described(*described, model.model);
+            const RecognitionResult result =
+                recognize_described(*described, model.model, nullptr, SceneFeatures::left_out);
             const Point centroid = model_centroid(model.model);
             ordered_json instances = ordered_json::array();
             for (const Instance& instance : result.instances) {

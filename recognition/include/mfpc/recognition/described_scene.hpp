@@ -44,15 +44,24 @@ struct DescribedScene {
 std::unique_ptr<DescribedScene> describe_scene(const PointCloud& scene, const RecognitionParams& params,
                                                const SceneFoveation& foveation = {});
 
+/// Whether recognize_described copies the scene's features into its result.
+enum class SceneFeatures {
+    copied,    ///< into RecognitionResult::scene_features, which evaluate() and diagnose_truth() read
+    left_out,  ///< scene_features left empty, for a caller that reads only instances, counts and timings
+};
+
 /// One model's matching, grouping, refinement and verification in a described scene: the same
 /// instances as recognize() of that model in that scene. Timings hold only this model's stages.
 /// @param described the scene, described once
 /// @param model the model to find
 /// @param hypotheses when given, receives grouping's instances before refinement and verification
 /// (diagnose_truth reads them)
-/// @return the model's result (the scene's features copied in, for evaluate())
+/// @param features whether the scene's features are copied into the result: about 20 MB on a
+/// 640x480 Kinect scene at the defaults, once per model (the batch leaves them out)
+/// @return the model's result
 RecognitionResult recognize_described(const DescribedScene& described, const Model& model,
-                                      std::vector<Instance>* hypotheses = nullptr);
+                                      std::vector<Instance>* hypotheses = nullptr,
+                                      SceneFeatures features = SceneFeatures::copied);
 
 /// What a recognize() run leaves for a diagnosis of it (diagnose_truth).
 struct RecognitionTrace {
