@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
 # The batch driver against a shell loop of `mfpc recognize`, on synthetic scenes the project makes:
-# throughput at 1 and 2 threads, the loop at the same threads, peak memory from 20 to 200 scenes,
-# and 4 models in one batch against one (scene time, and the same instances as separate runs).
+# throughput at 1 and 2 threads, the loop at the same threads, peak memory from 20 to 200 scenes
+# (and the first 20 ten times over), and 4 models in one batch against one (scene time, and the
+# same instances as separate runs).
 #
 #   bench/batch_throughput.sh [MFPC] [SCENES=100] [WORK=/tmp/mfpc-batch-bench] [REPEATS=3]
 #
@@ -53,11 +54,18 @@ for i in $(seq 0 199); do
   src=$(sed -n "$(( i % count + 1 ))p" "$work/scenes.txt")
   ln -f "$src" "$work/links/scene_$(printf %03d "$i").pcd"
 done
-for n in 20 200; do
-  ls "$work/links"/*.pcd | head -n "$n" > "$work/scenes$n.txt"
+# The 200 hold scenes the first 20 do not, some larger: the same 20 ten times over (links again)
+# tells growth with the batch's length from growth with what its scenes hold.
+mkdir -p "$work/again"
+for i in $(seq 0 199); do
+  ln -f "$work/links/scene_$(printf %03d "$(( i % 20 ))").pcd" "$work/again/scene_$(printf %03d "$i").pcd"
+done
+ls "$work/again"/*.pcd > "$work/scenes20x10.txt"
+for n in 20 200 20x10; do
+  [[ $n == 20x10 ]] || ls "$work/links"/*.pcd | head -n "$n" > "$work/scenes$n.txt"
   rm -f "$work/m$n.jsonl"
   "$mfpc" --threads 2 -q --json "$work/m$n.json" batch --model "$model" --scenes "$work/scenes$n.txt" -o "$work/m$n.jsonl"
-  printf 'peak memory, %3d scenes: %6.1f MiB\n' "$n" "$(jq '.peak_memory_bytes / 1048576' "$work/m$n.json")"
+  printf 'peak memory, %-5s scenes: %6.1f MiB\n' "$n" "$(jq '.peak_memory_bytes / 1048576' "$work/m$n.json")"
 done
 
 # Four models in one batch against one model, and against four separate batches, on 20 scenes.
