@@ -37,10 +37,9 @@ void reject_empty_values(const CLI::App& app)
 // are freed), so each scene's neighbour lists, descriptors and buffers came as fresh pages, faulted
 // in and zeroed by the kernel again: a fifth of a one-thread batch of Kinect scenes (12 milk_pair
 // scenes: 4.3 s, 3.3 s with this) for the same peak memory, which the first scene already reaches.
-// The mmap threshold's largest value keeps clouds of more than 32 MiB off the heap. The heap keeps
-// up to 64 MiB of free top, about what one 640x480 scene's buffers take: a bound of 512 MiB was as
-// fast, but let each arena keep its own high-water mark, and the peak of a 200-scene batch grew
-// 14-21% over a 20-scene one's (11-12% with 64 MiB, 9% without either setting).
+// The mmap threshold's largest value keeps clouds of more than 32 MiB off the heap. Each arena
+// keeps up to 64 MiB of free top, about what one 640x480 scene's buffers take: 512 MiB was no
+// faster (12 milk_pair scenes, 40 synthetic Kinect scenes) and would let more stay.
 void keep_freed_memory()
 {
 #if defined(__GLIBC__)
