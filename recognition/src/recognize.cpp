@@ -193,16 +193,24 @@ RecognitionResult recognize_described(const DescribedScene& described, const Mod
 
 namespace {
 
+// recognize_described for the description's last use: its features moved into the result rather
+// than copied (tens of megabytes on a Kinect scene).
+RecognitionResult recognize_last(DescribedScene& described, const Model& model)
+{
+    RecognitionResult result = recognize_described(described, model, nullptr, SceneFeatures::left_out);
+    result.scene_features = std::move(described.features);
+    return result;
+}
+
 // recognize(), handing its described scene and hypotheses to `trace` when given.
 RecognitionResult recognize_once(const Model& model, const PointCloud& scene, const RecognitionParams& params,
                                  const SceneFoveation& foveation, RecognitionTrace* trace)
 {
     const auto start = Clock::now();
     std::unique_ptr<DescribedScene> described = describe_scene(scene, params, foveation);
-    // The scene's features are moved into the result unless the trace keeps the described scene.
-    RecognitionResult result = recognize_described(*described, model, trace ? &trace->hypotheses : nullptr,
-                                                   trace ? SceneFeatures::copied : SceneFeatures::left_out);
-    if (!trace) result.scene_features = std::move(described->features);
+    // The trace keeps the described scene, features and all.
+    RecognitionResult result =
+        trace ? recognize_described(*described, model, &trace->hypotheses) : recognize_last(*described, model);
     // One model: the scene's stages and the model's as one run, the evidence counted as verification.
     const RecognitionTimings& scene_timings = described->timings;
     result.timings.foveate = scene_timings.foveate;
@@ -247,12 +255,9 @@ std::vector<RecognitionResult> recognize_models(std::span<const Model* const> mo
     std::vector<RecognitionResult> results;
     results.reserve(models.size());
     // Each result holds the scene's features: copies, and the last model's moved in.
-    for (std::size_t m = 0; m < models.size(); ++m) {
-        const bool last = m + 1 == models.size();
-        results.push_back(recognize_described(*described, *models[m], nullptr,
-                                              last ? SceneFeatures::left_out : SceneFeatures::copied));
-        if (last) results.back().scene_features = std::move(described->features);
-    }
+    for (std::size_t m = 0; m < models.size(); ++m)
+        results.push_back(m + 1 < models.size() ? recognize_described(*described, *models[m])
+                                                : recognize_last(*described, *models[m]));
     return results;
 }
 
