@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <chrono>
+#include <limits>
 #include <optional>
 #include <numeric>
 #include <string>
@@ -19,6 +20,9 @@ using detail::check_structures;
 using detail::downsample_labelled;
 using detail::label_regions;
 using detail::LevelFaces;
+using detail::no_region;
+using detail::Float4;
+using detail::Int4;
 
 void detail::check_structures(std::span<const FoveatedStructure> structures)
 {
@@ -171,13 +175,23 @@ FoveatedCloud foveate(const PointCloud& cloud, const PointIndex& index, const Fo
 
 namespace {
 
+// Whether the cloud's attributes have the sizes check_cloud asks for: the one-shot foveate checks
+// the points themselves in its labelling pass instead of a pass of their own.
+bool attribute_sizes_fit(const PointCloud& cloud)
+{
+    const std::size_t n = cloud.size();
+    return (!cloud.has_normals() || cloud.normals.size() == n) && (!cloud.has_colors() || cloud.colors.size() == n) &&
+           (cloud.source_index.empty() || cloud.source_index.size() == n);
+}
+
 // The one-shot foveate's labelling without an index: every point tested against the level boxes,
-// each covered one listed (ascending) in its region(s) with the key that ranks it as an index of
-// the cloud would list it, so that downsampling emits what foveate() over that index does. None
-// when the outer boxes reach beyond the index's lattice or span too many leaves to key.
+// each covered one listed (ascending) in its region(s), with the keys that rank a point as an index
+// of the cloud would list it, so that downsampling emits what foveate() over that index does. None
+// when the outer boxes reach beyond the index's lattice or span too many leaves to key. Throws as
+// check_cloud when a point is not finite or out of range, or a source position out of the source.
 struct KeyedRegions {
     FoveationRegions regions;
-    std::vector<std::uint64_t> keys;  // one per member
+    detail::IndexKeys keys;
 };
 std::optional<KeyedRegions> keyed_regions(const PointCloud& cloud, std::span<const FoveatedStructure> structures,
                                           FoveationMode mode, int single_structure)
@@ -190,6 +204,7 @@ std::optional<KeyedRegions> keyed_regions(const PointCloud& cloud, std::span<con
     const std::optional<detail::LeafNumbering> numbering =
         detail::LeafNumbering::over(lattice.leaf(outer.min), lattice.leaf(outer.max));
     if (!numbering) return std::nullopt;
+    KeyedRegions out{FoveationRegions{}, detail::IndexKeys{lattice, *numbering}};
 
     const int levels = structures[0].levels;
     const int boxes = levels + 1;
@@ -198,72 +213,156 @@ std::optional<KeyedRegions> keyed_regions(const PointCloud& cloud, std::span<con
     const std::vector<std::uint16_t> rank = detail::densest_first_ranks(structures);
     const int first_structure = mode == FoveationMode::single ? single_structure : 0;
     const int end_structure = mode == FoveationMode::single ? single_structure + 1 : int(structures.size());
-    const detail::LevelRange any_level{-1, std::int8_t(levels)};
+    const bool raw = mode == FoveationMode::raw;
+    const std::size_t source_size = cloud.source_size();
+    // Per structure, the densest-first rank of each of its levels, after one for "outside" (-1).
+    const std::size_t boxes_and_outside = std::size_t(boxes) + 1;
+    std::vector<std::int32_t> level_rank(structures.size() * boxes_and_outside, no_region);
+    for (std::size_t s = 0; s < structures.size(); ++s) {
+        for (std::size_t k = 0; k < std::size_t(boxes); ++k)
+            level_rank[s * boxes_and_outside + k + 1] = rank[s * std::size_t(boxes) + k];
+    }
+    std::vector<std::uint16_t> by_rank(region_count);
+    for (std::size_t r = 0; r < region_count; ++r) by_rank[rank[r]] = std::uint16_t(r);
 
-    // Blocks of the cloud in parallel, each listing its members per region; joined in block order.
-    struct Block {
-        std::vector<std::vector<std::uint32_t>> members;
-        std::vector<std::vector<std::uint64_t>> keys;
+    // Points four at a time, axis by axis: calls visit(structure, levels) for each active structure
+    // that holds some of them, levels -1 in the lanes it does not hold (and past the cloud's end).
+    // Returns the lanes within the cloud's points that are finite and within ±max_coordinate.
+    const auto visit_group = [&](std::size_t i, auto&& visit) {
+        Float4 x, y, z;
+        const std::size_t n = std::min<std::size_t>(4, cloud.size() - i);
+        if (n == 4) {
+            // x0 y0 z0 x1 | y1 z1 x2 y2 | z2 x3 y3 z3
+            Float4 a, b, c;
+            detail::load(a, cloud.points[i].data());
+            detail::load(b, cloud.points[i].data() + 4);
+            detail::load(c, cloud.points[i].data() + 8);
+            const Float4 ab_x = __builtin_shufflevector(a, b, 0, 3, 6, 6);
+            const Float4 ab_y = __builtin_shufflevector(a, b, 1, 4, 7, 7);
+            const Float4 ab_z = __builtin_shufflevector(a, b, 2, 5, 5, 5);
+            x = __builtin_shufflevector(ab_x, c, 0, 1, 2, 5);
+            y = __builtin_shufflevector(ab_y, c, 0, 1, 2, 6);
+            z = __builtin_shufflevector(ab_z, c, 0, 1, 4, 7);
+        } else {
+            constexpr float nan = std::numeric_limits<float>::quiet_NaN();
+            x = y = z = Float4{nan, nan, nan, nan};
+            for (std::size_t l = 0; l < n; ++l) {
+                x[l] = cloud.points[i + l].x();
+                y[l] = cloud.points[i + l].y();
+                z[l] = cloud.points[i + l].z();
+            }
+        }
+        for (int s = first_structure; s < end_structure; ++s) {
+            const Int4 level = faces.levels(s, x, y, z);
+            if (!LevelFaces::none_set(level >= 0)) visit(s, level);
+        }
+        const Int4 fit = (x <= max_coordinate) & (x >= -max_coordinate) & (y <= max_coordinate) &
+                         (y >= -max_coordinate) & (z <= max_coordinate) & (z >= -max_coordinate);
+        // Lanes past the cloud's end are NaN, which does not fit: they count as fitting.
+        const Int4 beyond = Int4{0, 1, 2, 3} >= std::int32_t(n);
+        return LevelFaces::none_set(~(fit | beyond));
+    };
+    // For four points: the region each joins as a densest-first rank (no_region: none), the
+    // densest of the structures holding it (redundancy treatment); or, in mode raw, join(lane,
+    // region) for each structure holding a lane, lanes in order within a structure. Adds each lane's
+    // covering structures to `covering`; returns the fit as visit_group does.
+    const auto join_group = [&](std::size_t i, Int4& covering, Int4& best, auto&& join) {
+        best = Int4{} + std::int32_t(no_region);
+        return visit_group(i, [&](int s, Int4 level) {
+            covering -= level >= 0;
+            const std::int32_t* ranks = &level_rank[std::size_t(s) * boxes_and_outside + 1];
+            const Int4 r = {ranks[level[0]], ranks[level[1]], ranks[level[2]], ranks[level[3]]};
+            if (!raw) {
+                best = r < best ? r : best;
+                return;
+            }
+            for (int l = 0; l < 4; ++l) {
+                if (r[l] != no_region) join(l, int(by_rank[std::size_t(r[l])]));
+            }
+        });
+    };
+
+    // Two passes over fixed blocks of the cloud (so the member order is the same at any thread
+    // count): the first counts each block's members per region (and keeps each point's region
+    // but in mode raw, where a point may join several), the second writes each member once where
+    // the counts say, with no list per block and region to grow and then join.
+    constexpr std::size_t block_size = 8192;  // a multiple of the group of 4
+    const std::size_t block_count = (cloud.size() + block_size - 1) / block_size;
+    std::vector<std::uint32_t> counts(block_count * region_count, 0);
+    std::vector<std::uint16_t> region_of(raw ? 0 : cloud.size());
+    struct BlockTally {
         std::size_t covered_points = 0;
         std::size_t coverage_pairs = 0;
+        bool points_fit = true;  // finite, within ±max_coordinate, their source positions in the source
     };
-    constexpr std::size_t block_size = 16384;
-    std::vector<Block> blocks((cloud.size() + block_size - 1) / block_size);
-    tbb::parallel_for(std::size_t(0), blocks.size(), [&](std::size_t b) {
-        Block& block = blocks[b];
-        block.members.resize(region_count);
-        block.keys.resize(region_count);
-        for (std::size_t i = b * block_size, end = std::min(cloud.size(), i + block_size); i < end; ++i) {
-            const Point& p = cloud.points[i];
-            if (!faces.covers(p)) continue;
-            std::size_t covering = 0;
-            std::uint64_t key = 0;
-            int densest = -1;
-            const auto add = [&](int region) {
-                block.members[std::size_t(region)].push_back(std::uint32_t(i));
-                block.keys[std::size_t(region)].push_back(key);
-            };
-            for (int s = first_structure; s < end_structure; ++s) {
-                const int level = faces.level(s, p, any_level);
-                if (level < 0) continue;
-                if (covering++ == 0) key = numbering->key(lattice.voxel(p));
-                const int region = s * boxes + level;
-                if (mode == FoveationMode::mfpc) {
-                    if (densest < 0 || rank[std::size_t(region)] < rank[std::size_t(densest)]) densest = region;
-                } else {
-                    add(region);
+    std::vector<BlockTally> tallies(block_count);
+    tbb::parallel_for(std::size_t(0), block_count, [&](std::size_t b) {
+        std::uint32_t* count = &counts[b * region_count];
+        const std::size_t end = std::min(cloud.size(), (b + 1) * block_size);
+        bool fit = true;
+        Int4 covered{};
+        Int4 pairs{};
+        for (std::size_t i = b * block_size; i < end; i += 4) {
+            Int4 covering{};
+            Int4 best;
+            fit &= join_group(i, covering, best, [&](int, int region) { ++count[region]; });
+            covered -= covering > 0;
+            pairs += covering;
+            if (raw) continue;
+            for (std::size_t l = 0; l < std::min<std::size_t>(4, end - i); ++l) {
+                std::uint16_t region = no_region;
+                if (best[l] != no_region) {
+                    region = by_rank[std::size_t(best[l])];
+                    ++count[region];
                 }
+                region_of[i + l] = region;
             }
-            if (densest >= 0) add(densest);
-            block.covered_points += covering > 0;
-            block.coverage_pairs += covering;
         }
+        if (!cloud.source_index.empty()) {
+            std::uint32_t outside = 0;
+            for (std::size_t i = b * block_size; i < end; ++i) outside |= cloud.source_index[i] >= source_size;
+            fit &= outside == 0;
+        }
+        tallies[b] = {std::size_t(covered[0]) + std::size_t(covered[1]) + std::size_t(covered[2]) + std::size_t(covered[3]),
+                      std::size_t(pairs[0]) + std::size_t(pairs[1]) + std::size_t(pairs[2]) + std::size_t(pairs[3]), fit};
     });
-
-    KeyedRegions out;
     FoveationRegions& regions = out.regions;
+    for (const BlockTally& tally : tallies) {
+        // check_cloud names the first point that does not fit.
+        if (!tally.points_fit) check_cloud(cloud, "foveation");
+        regions.covered_points += tally.covered_points;
+        regions.coverage_pairs += tally.coverage_pairs;
+    }
+
+    // Each block's first place in each region: the regions in order, the blocks in order within one.
     regions.structures = int(structures.size());
     regions.levels = levels;
     regions.offsets.assign(region_count + 1, 0);
+    std::uint32_t at = 0;
     for (std::size_t r = 0; r < region_count; ++r) {
-        std::size_t count = 0;
-        for (const Block& block : blocks) count += block.members[r].size();
-        regions.offsets[r + 1] = regions.offsets[r] + std::uint32_t(count);
+        regions.offsets[r] = at;
+        for (std::size_t b = 0; b < block_count; ++b) {
+            const std::uint32_t count = counts[b * region_count + r];
+            counts[b * region_count + r] = at;
+            at += count;
+        }
     }
-    regions.members.resize(regions.offsets.back());
-    out.keys.resize(regions.offsets.back());
-    tbb::parallel_for(std::size_t(0), region_count, [&](std::size_t r) {
-        std::size_t at = regions.offsets[r];
-        for (const Block& block : blocks) {
-            std::copy(block.members[r].begin(), block.members[r].end(), regions.members.begin() + std::ptrdiff_t(at));
-            std::copy(block.keys[r].begin(), block.keys[r].end(), out.keys.begin() + std::ptrdiff_t(at));
-            at += block.members[r].size();
+    regions.offsets[region_count] = at;
+    regions.members.resize(at);
+    tbb::parallel_for(std::size_t(0), block_count, [&](std::size_t b) {
+        std::uint32_t* cursor = &counts[b * region_count];
+        const auto add = [&](std::size_t i, int region) { regions.members[cursor[region]++] = std::uint32_t(i); };
+        const std::size_t end = std::min(cloud.size(), (b + 1) * block_size);
+        for (std::size_t i = b * block_size; i < end; i += raw ? 4 : 1) {
+            if (!raw) {
+                if (region_of[i] != no_region) add(i, region_of[i]);
+                continue;
+            }
+            Int4 covering{};
+            Int4 best;
+            join_group(i, covering, best, [&](int lane, int region) { add(i + std::size_t(lane), region); });
         }
     });
-    for (const Block& block : blocks) {
-        regions.covered_points += block.covered_points;
-        regions.coverage_pairs += block.coverage_pairs;
-    }
     return out;
 }
 
@@ -275,19 +374,20 @@ FoveatedCloud foveate(const PointCloud& cloud, const FoveationConfig& config, Fo
     if (mode == FoveationMode::none) return unfoveated(cloud);
     check_structures(config.structures);
     // The labelling below trusts the attribute sizes (the indexed path finds a mismatch in building
-    // the index).
-    check_cloud(cloud, "foveation");
+    // the index); it checks the points as it goes, so check_cloud runs only to name a misfit.
+    if (!attribute_sizes_fit(cloud)) check_cloud(cloud, "foveation");
     if (mode == FoveationMode::single) check_single_structure(config.structures, single_structure);
     // Without an index: each point tested against the boxes, and downsampling told where an index
     // would list each member, so the result is the indexed path's.
     const auto start = std::chrono::steady_clock::now();
     if (std::optional<KeyedRegions> keyed = keyed_regions(cloud, config.structures, mode, single_structure)) {
         const auto labelled = std::chrono::steady_clock::now();
-        FoveatedCloud result = downsample_labelled(cloud, keyed->regions, config.structures, config.downsample, keyed->keys);
+        FoveatedCloud result = downsample_labelled(cloud, keyed->regions, config.structures, config.downsample, &keyed->keys);
         result.label_ms = std::chrono::duration<double, std::milli>(labelled - start).count();
         result.downsample_ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - labelled).count();
         return result;
     }
+    check_cloud(cloud, "foveation");
     // Outer boxes too far out to key (kilometres): index the points inside some outer box. Taken
     // in ascending order, they keep their relative order in the index (leaf, voxel, then point).
     const LevelFaces faces(config.structures);

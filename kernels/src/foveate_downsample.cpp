@@ -2,6 +2,7 @@
 #include <array>
 #include <limits>
 #include <string>
+#include <tuple>
 
 #include <tbb/parallel_for.h>
 
@@ -44,10 +45,10 @@ struct RegionMembers {
     std::span<const std::uint32_t> members;
     std::span<const RegionRun> runs;  // empty: use members
     const PointIndex* index = nullptr;
-    // Empty: the members come in the index's order. Else, one per member: the members come in
-    // another order (the one-shot foveate's, ascending), and (key, member) ranks them as an index
-    // would list them (detail::LeafNumbering).
-    std::span<const std::uint64_t> keys;
+    // None: the members come in the index's order. Else the members come in another order (the
+    // one-shot foveate's, ascending), and (key of the point, member) ranks them as an index would
+    // list them.
+    const detail::IndexKeys* keys = nullptr;
 
     // Calls visit(point index, point) for every member, in member order.
     template <typename Visit>
@@ -89,14 +90,17 @@ RegionOutput downsample_region(const PointCloud& cloud, const RegionMembers& reg
 {
     RegionOutput out;
     if (region.count == 0) return out;
-    const bool keyed = !region.keys.empty();
+    const bool keyed = region.keys != nullptr;
     if (density == 0.0f) {
         if (!keyed) {
             region.for_each(cloud, [&](std::uint32_t point, const Point&) { keep_point(cloud, point, out); });
             return out;
         }
         std::vector<IndexRank> ranks(region.count);
-        for (std::size_t j = 0; j < region.count; ++j) ranks[j] = {region.keys[j], region.members[j]};
+        for (std::size_t j = 0; j < region.count; ++j) {
+            const std::uint32_t point = region.members[j];
+            ranks[j] = {(*region.keys)(cloud.points[point]), point};
+        }
         for (const std::uint32_t j : by_rank(ranks)) keep_point(cloud, region.members[j], out);
         return out;
     }
@@ -121,14 +125,17 @@ RegionOutput downsample_region(const PointCloud& cloud, const RegionMembers& reg
             throw Error(where(), "region spans more than 2^21 voxels of size " + format_number(density) + " on one axis");
         }
     }
-    detail::VoxelSlots slots(extent, region.count);
+    // The one-shot foveate's regions are sized for a voxel per 16 members, not one per member: their
+    // table is cleared on every call, and at 1 MB and more for ~1,000 voxels (real scene, 0.01 m)
+    // its pages cost a cold call more than growing a smaller one does.
+    detail::VoxelSlots slots(extent, keyed ? region.count / 16 : region.count);
 
     // The voxel of p relative to the box's lowest voxel, when p lies in the box's voxels. Checked
     // on the products, before the floors: floor(q) lies in [lowest, lowest + extent) exactly when
     // q does (integer bounds), and no far point (nor NaN) reaches an overflowing conversion.
     const Eigen::Array3d low_face = lowest.cast<double>();
     const Eigen::Array3d high_face = (lowest + extent).cast<double>();
-    auto voxel_in_box = [&](const Point& p, Eigen::Matrix<std::int64_t, 3, 1>& v) {
+    auto voxel_in_box = [&](const Point& p, Eigen::Matrix<std::int64_t, 3, 1>& v) __attribute__((always_inline)) {
         const Eigen::Array3d q = p.cast<double>().array() * inverse;
         if (!(q[0] >= low_face[0] && q[1] >= low_face[1] && q[2] >= low_face[2] && q[0] < high_face[0] &&
               q[1] < high_face[1] && q[2] < high_face[2]))
@@ -152,7 +159,6 @@ RegionOutput downsample_region(const PointCloud& cloud, const RegionMembers& reg
         };
         std::vector<Nearest> voxels;
         std::vector<IndexRank> first;  // keyed: per voxel, its first member in the index's order
-        std::size_t j = 0;             // the member's position
         region.for_each(cloud, [&](std::uint32_t point, const Point& p) {
             const auto v = voxel(p);
             const Eigen::Vector3d center = ((v + lowest).cast<double>().array() + 0.5).matrix() * d;
@@ -160,7 +166,7 @@ RegionOutput downsample_region(const PointCloud& cloud, const RegionMembers& reg
             const auto [slot, is_new] = slots.find(v[0], v[1], v[2], std::uint32_t(voxels.size()));
             if (keyed) {
                 if (is_new) first.emplace_back();
-                first[slot] = std::min(first[slot], IndexRank{region.keys[j++], point});
+                first[slot] = std::min(first[slot], IndexRank{(*region.keys)(p), point});
             }
             // Strictly nearer, or as near with a lower index: the same point whatever the order.
             if (is_new) {
@@ -242,13 +248,67 @@ RegionOutput downsample_region(const PointCloud& cloud, const RegionMembers& reg
         return slot_for(v, first);
     };
     if (keyed) {
+        // Written out rather than through the helpers above, which GCC 12 left out of line here (a
+        // call per member, three times the instructions). Members ascend, so a voxel's first
+        // member is its lowest point, and a later one ranks first in the index only by a lower key.
+        // Consecutive members are mostly neighbouring pixels: a member in the previous one's
+        // downsampling voxel (or index voxel) reuses its slot (or key) after a bounds test on the
+        // same products the floors would take, in place of the floors, the lookup (or the key).
+        first.reserve(voxels.capacity());
+        const detail::IndexLattice& lattice = region.keys->lattice;
+        // Whether low <= x < high on every axis, without a branch per axis (Eigen's all() took one).
+        const auto within = [](const Eigen::Array3d& x, const Eigen::Array3d& low, const Eigen::Array3d& high) {
+            return bool((x[0] >= low[0]) && (x[1] >= low[1]) && (x[2] >= low[2]) && (x[0] < high[0]) && (x[1] < high[1]) &&
+                        (x[2] < high[2]));
+        };
+        Eigen::Array3d slot_low = Eigen::Array3d::Constant(std::numeric_limits<double>::infinity());
+        Eigen::Array3d slot_high = slot_low;
+        std::uint32_t slot = detail::VoxelSlots::none;
+        Eigen::Array3d key_low = slot_low;
+        Eigen::Array3d key_high = slot_low;
+        std::uint64_t key = 0;
         for (std::size_t j = 0; j < region.count; ++j) {
             const std::uint32_t point = region.members[j];
             const Point& p = cloud.points[point];
-            const std::uint32_t slot = slot_for(voxel(p), point);
-            if (slot == first.size()) first.emplace_back();
-            first[slot] = std::min(first[slot], IndexRank{region.keys[j], point});
-            add_to(slot, point, p);
+            const Eigen::Array3d u = lattice.unfloored(p);
+            const bool same_key = within(u, key_low, key_high);
+            if (!same_key) {
+                const Eigen::Vector3i iv(floor_to<int>(u.x()), floor_to<int>(u.y()), floor_to<int>(u.z()));
+                key = region.keys->numbering.key(iv);
+                key_low = iv.cast<double>().array();
+                key_high = key_low + 1.0;
+            }
+            const Eigen::Array3d q = p.cast<double>().array() * inverse;
+            if (within(q, slot_low, slot_high)) {
+                Sum& sum = voxels[slot];
+                sum.xyz += p.cast<double>();
+                ++sum.count;
+                if (!same_key && key < first[slot].key) first[slot] = {key, point};
+            } else {
+                Eigen::Matrix<std::int64_t, 3, 1> v;
+                if (!voxel_in_box(p, v)) throw Error(where(), "a member lies outside the region's box");
+                bool is_new = false;
+                std::tie(slot, is_new) = slots.find(v[0], v[1], v[2], std::uint32_t(voxels.size()));
+                slot_low = (v + lowest).cast<double>().array();
+                slot_high = slot_low + 1.0;
+                if (is_new) {
+                    voxels.push_back({p.cast<double>(), 1, point});
+                    first.push_back({key, point});
+                } else {
+                    Sum& sum = voxels[slot];
+                    sum.xyz += p.cast<double>();
+                    ++sum.count;
+                    if (key < first[slot].key) first[slot] = {key, point};
+                }
+            }
+            if (colors) {
+                const Rgb& c = cloud.colors[point];
+                std::array<std::uint64_t, 3>& rgb = voxels[slot].rgb;
+                rgb[0] += c.r;
+                rgb[1] += c.g;
+                rgb[2] += c.b;
+            }
+            if (normals) slot_of.push_back(slot);
         }
     } else if (region.runs.empty()) {
         region.for_each(cloud, add_point);
@@ -349,7 +409,7 @@ RegionOutput downsample_region(const PointCloud& cloud, const RegionMembers& reg
 
 FoveatedCloud detail::downsample_labelled(const PointCloud& cloud, const FoveationRegions& regions,
                                           std::span<const FoveatedStructure> structures, Downsample downsample,
-                                          std::span<const std::uint64_t> member_keys)
+                                          const IndexKeys* member_keys)
 {
     const int region_count = regions.region_count();
     const bool use_runs = regions.index && !regions.run_offsets.empty();
@@ -371,8 +431,7 @@ FoveatedCloud detail::downsample_labelled(const PointCloud& cloud, const Foveati
         // Regions of runs list no members: the member list is empty there, and an offset into it
         // would be undefined even for an empty region.
         if (!use_runs) region.members = regions.region(s, k);
-        if (!member_keys.empty())
-            region.keys = member_keys.subspan(regions.offsets[std::size_t(r)], region.members.size());
+        region.keys = member_keys;
         outputs[std::size_t(r)] = downsample_region(cloud, region, structure.level_box(k), density, downsample, s, k);
         result.regions[std::size_t(r)] = {s, k, density, count, outputs[std::size_t(r)].points.size()};
     });

@@ -5,13 +5,16 @@
 // downsampling in foveate_downsample.cpp.
 
 #include <algorithm>
+#include <array>
 #include <cstddef>
 #include <cstdint>
+#include <cstring>
 #include <limits>
 #include <span>
 #include <vector>
 
 #include "mfpc/kernels/detail/lanes.hpp"
+#include "mfpc/index/detail/index_lattice.hpp"
 #include "mfpc/kernels/foveate.hpp"
 
 namespace mfpc::detail {
@@ -49,6 +52,9 @@ public:
                 // The fourth lane always holds, so it never limits the count.
                 lower_.push_back(Float4{box.min.x(), box.min.y(), box.min.z(), -inf});
                 upper_.push_back(Float4{box.max.x(), box.max.y(), box.max.z(), inf});
+                const auto lanes_of = [](float face) { return Float4{face, face, face, face}; };
+                planes_.push_back({lanes_of(box.min.x()), lanes_of(box.max.x()), lanes_of(box.min.y()),
+                                   lanes_of(box.max.y()), lanes_of(box.min.z()), lanes_of(box.max.z())});
             }
         }
     }
@@ -100,6 +106,31 @@ public:
         return smallest_axis(lower_in < upper_in ? lower_in : upper_in) - 1;
     }
 
+    // The levels of four points at once, given axis by axis (lanes that are NaN lie outside): per
+    // lane the number of the structure's boxes that hold the point, less one, which is its level as
+    // the boxes are nested (-1: outside). Stops at the first box that holds none of them.
+    Int4 levels(int structure, Float4 x, Float4 y, Float4 z) const
+    {
+        const std::array<Float4, 6>* planes = &planes_[std::size_t(structure) * std::size_t(boxes_)];
+        Int4 count{};
+        for (int k = 0; k < boxes_; ++k) {
+            const std::array<Float4, 6>& f = planes[k];
+            const Int4 in = (x >= f[0]) & (x <= f[1]) & (y >= f[2]) & (y <= f[3]) & (z >= f[4]) & (z <= f[5]);
+            if (none_set(in)) break;
+            count -= in;
+        }
+        return count - 1;
+    }
+
+    // Whether no lane of a comparison's result holds (two 64-bit halves: reading the four lanes one
+    // by one took as many instructions as the box test).
+    static bool none_set(Int4 mask)
+    {
+        std::uint64_t half[2];
+        std::memcpy(half, &mask, sizeof half);
+        return (half[0] | half[1]) == 0;
+    }
+
     // Whether box `level` of `structure` (closed) holds p.
     bool contains(int structure, int level, const Point& p) const
     {
@@ -130,6 +161,8 @@ private:
     int boxes_;
     std::vector<Float4> lower_;  // [structure * boxes + k]
     std::vector<Float4> upper_;
+    // Each box's faces, each in every lane (min x, max x, min y, max y, min z, max z): levels().
+    std::vector<std::array<Float4, 6>> planes_;
 };
 
 // Throws unless structure `single_structure` exists (mode single).
@@ -150,13 +183,21 @@ void check_structures(std::span<const FoveatedStructure> structures);
 FoveationRegions label_regions(const PointIndex& index, std::span<const FoveatedStructure> structures,
                                FoveationMode mode, int single_structure, bool with_members);
 
+// Where a default PointIndex of a cloud would list a point: the key of its voxel (its leaf, then
+// the voxel in the leaf; the index lists a voxel's points by ascending number). For points whose
+// leaves lie within the numbering's.
+struct IndexKeys {
+    IndexLattice lattice;
+    LeafNumbering numbering;
+    std::uint64_t operator()(const Point& p) const { return numbering.key(lattice.voxel(p)); }
+};
+
 // Downsampling of regions known to be well formed: made by label_regions (the member list may be
-// absent), or checked by downsample_regions. member_keys: empty when the members come in the
-// index's order; else one per member of the member list, whose members then come in ascending
-// order, ranking them as an index would list them (detail::LeafNumbering keys): the output is the
-// same as from members in the index's order.
+// absent), or checked by downsample_regions. member_keys: none when the members come in the
+// index's order; else the members come in ascending order and these keys rank them as an index
+// would list them, so that the output is the same as from members in the index's order.
 FoveatedCloud downsample_labelled(const PointCloud& cloud, const FoveationRegions& regions,
                                   std::span<const FoveatedStructure> structures, Downsample downsample,
-                                  std::span<const std::uint64_t> member_keys = {});
+                                  const IndexKeys* member_keys = nullptr);
 
 }  // namespace mfpc::detail
