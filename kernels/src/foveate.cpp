@@ -6,6 +6,7 @@
 #include <optional>
 #include <numeric>
 #include <string>
+#include <utility>
 
 #include <tbb/parallel_for.h>
 
@@ -215,15 +216,16 @@ std::optional<KeyedRegions> keyed_regions(const PointCloud& cloud, std::span<con
     const int end_structure = mode == FoveationMode::single ? single_structure + 1 : int(structures.size());
     const bool raw = mode == FoveationMode::raw;
     const std::size_t source_size = cloud.source_size();
-    // Per structure, the densest-first rank of each of its levels, after one for "outside" (-1).
+    // Regions travel through the passes as their densest-first ranks, so that the densest is the
+    // smallest; `outside`, after every rank, is no region. Per structure, the rank of each of its
+    // levels, after `outside` for level -1.
+    const auto outside = std::int32_t(region_count);
     const std::size_t boxes_and_outside = std::size_t(boxes) + 1;
-    std::vector<std::int32_t> level_rank(structures.size() * boxes_and_outside, no_region);
+    std::vector<std::int32_t> level_rank(structures.size() * boxes_and_outside, outside);
     for (std::size_t s = 0; s < structures.size(); ++s) {
         for (std::size_t k = 0; k < std::size_t(boxes); ++k)
             level_rank[s * boxes_and_outside + k + 1] = rank[s * std::size_t(boxes) + k];
     }
-    std::vector<std::uint16_t> by_rank(region_count);
-    for (std::size_t r = 0; r < region_count; ++r) by_rank[rank[r]] = std::uint16_t(r);
 
     // Points four at a time, axis by axis: calls visit(structure, levels) for each active structure
     // that holds some of them, levels -1 in the lanes it does not hold (and past the cloud's end).
@@ -252,9 +254,11 @@ std::optional<KeyedRegions> keyed_regions(const PointCloud& cloud, std::span<con
                 z[l] = cloud.points[i + l].z();
             }
         }
-        for (int s = first_structure; s < end_structure; ++s) {
-            const Int4 level = faces.levels(s, x, y, z);
-            if (!LevelFaces::none_set(level >= 0)) visit(s, level);
+        if (!LevelFaces::none_set(faces.in_outer_bounds(x, y, z))) {
+            for (int s = first_structure; s < end_structure; ++s) {
+                const Int4 level = faces.levels(s, x, y, z);
+                if (!LevelFaces::none_set(level >= 0)) visit(s, level);
+            }
         }
         const Int4 fit = (x <= max_coordinate) & (x >= -max_coordinate) & (y <= max_coordinate) &
                          (y >= -max_coordinate) & (z <= max_coordinate) & (z >= -max_coordinate);
@@ -262,12 +266,12 @@ std::optional<KeyedRegions> keyed_regions(const PointCloud& cloud, std::span<con
         const Int4 beyond = Int4{0, 1, 2, 3} >= std::int32_t(n);
         return LevelFaces::none_set(~(fit | beyond));
     };
-    // For four points: the region each joins as a densest-first rank (no_region: none), the
-    // densest of the structures holding it (redundancy treatment); or, in mode raw, join(lane,
-    // region) for each structure holding a lane, lanes in order within a structure. Adds each lane's
-    // covering structures to `covering`; returns the fit as visit_group does.
+    // For four points: the rank of the region each joins (`outside`: none), the densest of the
+    // structures holding it (redundancy treatment); or, in mode raw, join(lane, rank) for each
+    // structure holding a lane, lanes in order within a structure. Adds each lane's covering
+    // structures to `covering`; returns the fit as visit_group does.
     const auto join_group = [&](std::size_t i, Int4& covering, Int4& best, auto&& join) {
-        best = Int4{} + std::int32_t(no_region);
+        best = Int4{} + outside;
         return visit_group(i, [&](int s, Int4 level) {
             covering -= level >= 0;
             const std::int32_t* ranks = &level_rank[std::size_t(s) * boxes_and_outside + 1];
@@ -277,7 +281,7 @@ std::optional<KeyedRegions> keyed_regions(const PointCloud& cloud, std::span<con
                 return;
             }
             for (int l = 0; l < 4; ++l) {
-                if (r[l] != no_region) join(l, int(by_rank[std::size_t(r[l])]));
+                if (r[l] != outside) join(l, r[l]);
             }
         });
     };
@@ -288,8 +292,10 @@ std::optional<KeyedRegions> keyed_regions(const PointCloud& cloud, std::span<con
     // the counts say, with no list per block and region to grow and then join.
     constexpr std::size_t block_size = 8192;  // a multiple of the group of 4
     const std::size_t block_count = (cloud.size() + block_size - 1) / block_size;
-    std::vector<std::uint32_t> counts(block_count * region_count, 0);
-    std::vector<std::uint16_t> region_of(raw ? 0 : cloud.size());
+    // Per block, members per rank, and a last count for `outside` that none reads.
+    const std::size_t counted = region_count + 1;
+    std::vector<std::uint32_t> counts(block_count * counted, 0);
+    std::vector<std::uint16_t> rank_of(raw ? 0 : cloud.size());
     struct BlockTally {
         std::size_t covered_points = 0;
         std::size_t coverage_pairs = 0;
@@ -297,7 +303,7 @@ std::optional<KeyedRegions> keyed_regions(const PointCloud& cloud, std::span<con
     };
     std::vector<BlockTally> tallies(block_count);
     tbb::parallel_for(std::size_t(0), block_count, [&](std::size_t b) {
-        std::uint32_t* count = &counts[b * region_count];
+        std::uint32_t* count = &counts[b * counted];
         const std::size_t end = std::min(cloud.size(), (b + 1) * block_size);
         bool fit = true;
         Int4 covered{};
@@ -305,23 +311,21 @@ std::optional<KeyedRegions> keyed_regions(const PointCloud& cloud, std::span<con
         for (std::size_t i = b * block_size; i < end; i += 4) {
             Int4 covering{};
             Int4 best;
-            fit &= join_group(i, covering, best, [&](int, int region) { ++count[region]; });
+            fit &= join_group(i, covering, best, [&](int, std::int32_t joined) { ++count[joined]; });
             covered -= covering > 0;
             pairs += covering;
             if (raw) continue;
             for (std::size_t l = 0; l < std::min<std::size_t>(4, end - i); ++l) {
-                std::uint16_t region = no_region;
-                if (best[l] != no_region) {
-                    region = by_rank[std::size_t(best[l])];
-                    ++count[region];
-                }
-                region_of[i + l] = region;
+                ++count[best[l]];
+                rank_of[i + l] = std::uint16_t(best[l]);
             }
         }
         if (!cloud.source_index.empty()) {
-            std::uint32_t outside = 0;
-            for (std::size_t i = b * block_size; i < end; ++i) outside |= cloud.source_index[i] >= source_size;
-            fit &= outside == 0;
+            // The largest, through a plain pointer: GCC vectorizes this loop, not the one over the vector.
+            const std::uint32_t* source = cloud.source_index.data();
+            std::uint32_t largest = 0;
+            for (std::size_t i = b * block_size; i < end; ++i) largest = std::max(largest, source[i]);
+            fit &= largest < source_size;
         }
         tallies[b] = {std::size_t(covered[0]) + std::size_t(covered[1]) + std::size_t(covered[2]) + std::size_t(covered[3]),
                       std::size_t(pairs[0]) + std::size_t(pairs[1]) + std::size_t(pairs[2]) + std::size_t(pairs[3]), fit};
@@ -342,25 +346,24 @@ std::optional<KeyedRegions> keyed_regions(const PointCloud& cloud, std::span<con
     for (std::size_t r = 0; r < region_count; ++r) {
         regions.offsets[r] = at;
         for (std::size_t b = 0; b < block_count; ++b) {
-            const std::uint32_t count = counts[b * region_count + r];
-            counts[b * region_count + r] = at;
-            at += count;
+            std::uint32_t& count = counts[b * counted + rank[r]];
+            at += std::exchange(count, at);
         }
     }
     regions.offsets[region_count] = at;
     regions.members.resize(at);
     tbb::parallel_for(std::size_t(0), block_count, [&](std::size_t b) {
-        std::uint32_t* cursor = &counts[b * region_count];
-        const auto add = [&](std::size_t i, int region) { regions.members[cursor[region]++] = std::uint32_t(i); };
+        std::uint32_t* cursor = &counts[b * counted];
+        const auto add = [&](std::size_t i, std::int32_t joined) { regions.members[cursor[joined]++] = std::uint32_t(i); };
         const std::size_t end = std::min(cloud.size(), (b + 1) * block_size);
         for (std::size_t i = b * block_size; i < end; i += raw ? 4 : 1) {
             if (!raw) {
-                if (region_of[i] != no_region) add(i, region_of[i]);
+                if (rank_of[i] != outside) add(i, rank_of[i]);
                 continue;
             }
             Int4 covering{};
             Int4 best;
-            join_group(i, covering, best, [&](int lane, int region) { add(i + std::size_t(lane), region); });
+            join_group(i, covering, best, [&](int lane, std::int32_t joined) { add(i + std::size_t(lane), joined); });
         }
     });
     return out;

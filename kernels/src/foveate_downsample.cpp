@@ -76,9 +76,18 @@ struct IndexRank {
 // The positions 0 .. ranks.size() - 1 ordered by rank: the order in which an index would list them.
 std::vector<std::uint32_t> by_rank(const std::vector<IndexRank>& ranks)
 {
+    // Sorted with their ranks beside them: comparing through the positions read two ranks from
+    // anywhere in `ranks` per comparison, about 6% of the one-shot foveate.
+    struct Ranked {
+        IndexRank rank;
+        std::uint32_t position;
+    };
+    std::vector<Ranked> ranked(ranks.size());
+    for (std::size_t i = 0; i < ranks.size(); ++i) ranked[i] = {ranks[i], std::uint32_t(i)};
+    // Each rank names another point, so the order is total.
+    std::sort(ranked.begin(), ranked.end(), [](const Ranked& a, const Ranked& b) { return a.rank < b.rank; });
     std::vector<std::uint32_t> order(ranks.size());
-    for (std::size_t i = 0; i < order.size(); ++i) order[i] = std::uint32_t(i);
-    std::sort(order.begin(), order.end(), [&](std::uint32_t a, std::uint32_t b) { return ranks[a] < ranks[b]; });
+    for (std::size_t i = 0; i < order.size(); ++i) order[i] = ranked[i].position;
     return order;
 }
 

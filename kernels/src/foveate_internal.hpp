@@ -57,6 +57,12 @@ public:
                                    lanes_of(box.max.y()), lanes_of(box.min.z()), lanes_of(box.max.z())});
             }
         }
+        Box bounds = structures[0].level_box(0);
+        for (const FoveatedStructure& structure : structures) bounds.extend(structure.level_box(0));
+        for (int axis = 0; axis < 3; ++axis) {
+            outer_bounds_[std::size_t(2 * axis)] = Float4{} + bounds.min[axis];
+            outer_bounds_[std::size_t(2 * axis + 1)] = Float4{} + bounds.max[axis];
+        }
     }
 
     // The level range of points within `bounds` (tight: the extreme coordinates are points'), given
@@ -122,6 +128,14 @@ public:
         return count - 1;
     }
 
+    // For four points given axis by axis: the lanes inside the bounds of every structure's outer box,
+    // which levels() can skip the structures for when none is.
+    Int4 in_outer_bounds(Float4 x, Float4 y, Float4 z) const
+    {
+        const std::array<Float4, 6>& f = outer_bounds_;
+        return (x >= f[0]) & (x <= f[1]) & (y >= f[2]) & (y <= f[3]) & (z >= f[4]) & (z <= f[5]);
+    }
+
     // Whether no lane of a comparison's result holds (two 64-bit halves: reading the four lanes one
     // by one took as many instructions as the box test).
     static bool none_set(Int4 mask)
@@ -163,6 +177,7 @@ private:
     std::vector<Float4> upper_;
     // Each box's faces, each in every lane (min x, max x, min y, max y, min z, max z): levels().
     std::vector<std::array<Float4, 6>> planes_;
+    std::array<Float4, 6> outer_bounds_{};  // the same for the bounds of the outer boxes
 };
 
 // Throws unless structure `single_structure` exists (mode single).
