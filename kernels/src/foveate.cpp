@@ -327,8 +327,10 @@ std::optional<KeyedRegions> keyed_regions(const PointCloud& cloud, std::span<con
             for (std::size_t i = b * block_size; i < end; ++i) largest = std::max(largest, source[i]);
             fit &= largest < source_size;
         }
-        tallies[b] = {std::size_t(covered[0]) + std::size_t(covered[1]) + std::size_t(covered[2]) + std::size_t(covered[3]),
-                      std::size_t(pairs[0]) + std::size_t(pairs[1]) + std::size_t(pairs[2]) + std::size_t(pairs[3]), fit};
+        const auto lane_sum = [](Int4 v) {
+            return std::size_t(v[0]) + std::size_t(v[1]) + std::size_t(v[2]) + std::size_t(v[3]);
+        };
+        tallies[b] = {lane_sum(covered), lane_sum(pairs), fit};
     });
     FoveationRegions& regions = out.regions;
     for (const BlockTally& tally : tallies) {
@@ -354,7 +356,9 @@ std::optional<KeyedRegions> keyed_regions(const PointCloud& cloud, std::span<con
     regions.members.resize(at);
     tbb::parallel_for(std::size_t(0), block_count, [&](std::size_t b) {
         std::uint32_t* cursor = &counts[b * counted];
-        const auto add = [&](std::size_t i, std::int32_t joined) { regions.members[cursor[joined]++] = std::uint32_t(i); };
+        const auto add = [&](std::size_t i, std::int32_t joined) {
+            regions.members[cursor[joined]++] = std::uint32_t(i);
+        };
         const std::size_t end = std::min(cloud.size(), (b + 1) * block_size);
         for (std::size_t i = b * block_size; i < end; i += raw ? 4 : 1) {
             if (!raw) {
@@ -385,7 +389,8 @@ FoveatedCloud foveate(const PointCloud& cloud, const FoveationConfig& config, Fo
     const auto start = std::chrono::steady_clock::now();
     if (std::optional<KeyedRegions> keyed = keyed_regions(cloud, config.structures, mode, single_structure)) {
         const auto labelled = std::chrono::steady_clock::now();
-        FoveatedCloud result = downsample_labelled(cloud, keyed->regions, config.structures, config.downsample, &keyed->keys);
+        FoveatedCloud result =
+            downsample_labelled(cloud, keyed->regions, config.structures, config.downsample, &keyed->keys);
         result.label_ms = std::chrono::duration<double, std::milli>(labelled - start).count();
         result.downsample_ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - labelled).count();
         return result;

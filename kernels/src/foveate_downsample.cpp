@@ -265,10 +265,10 @@ RegionOutput downsample_region(const PointCloud& cloud, const RegionMembers& reg
         // same products the floors would take, in place of the floors, the lookup (or the key).
         first.reserve(voxels.capacity());
         const detail::IndexLattice& lattice = region.keys->lattice;
-        // Whether low <= x < high on every axis, without a branch per axis (Eigen's all() took one).
+        // Whether low <= x < high on every axis.
         const auto within = [](const Eigen::Array3d& x, const Eigen::Array3d& low, const Eigen::Array3d& high) {
-            return bool((x[0] >= low[0]) && (x[1] >= low[1]) && (x[2] >= low[2]) && (x[0] < high[0]) && (x[1] < high[1]) &&
-                        (x[2] < high[2]));
+            return x[0] >= low[0] && x[1] >= low[1] && x[2] >= low[2] && x[0] < high[0] && x[1] < high[1] &&
+                   x[2] < high[2];
         };
         Eigen::Array3d slot_low = Eigen::Array3d::Constant(std::numeric_limits<double>::infinity());
         Eigen::Array3d slot_high = slot_low;

@@ -32,7 +32,8 @@ public:
 
     // The slot of voxel (i, j, k); `next` is the slot a new voxel gets. Returns {slot, is_new}.
     // Forced inline: GCC 12 called it out of line from the one-shot foveate's member loop.
-    __attribute__((always_inline)) inline std::pair<std::uint32_t, bool> find(std::int64_t i, std::int64_t j, std::int64_t k, std::uint32_t next)
+    __attribute__((always_inline)) inline std::pair<std::uint32_t, bool> find(std::int64_t i, std::int64_t j,
+                                                                              std::int64_t k, std::uint32_t next)
     {
         if (!dense_.empty()) {
             std::uint32_t& slot = dense_[std::size_t((i * extent_[1] + j) * extent_[2] + k)];
