@@ -229,7 +229,7 @@ std::optional<KeyedRegions> keyed_regions(const PointCloud& cloud, std::span<con
 
     // Points four at a time, axis by axis: calls visit(structure, levels) for each active structure
     // that holds some of them, levels -1 in the lanes it does not hold (and past the cloud's end).
-    // Returns the lanes within the cloud's points that are finite and within ±max_coordinate.
+    // Returns whether every lane within the cloud's points is finite and within ±max_coordinate.
     const auto visit_group = [&](std::size_t i, auto&& visit) {
         Float4 x, y, z;
         const std::size_t n = std::min<std::size_t>(4, cloud.size() - i);
