@@ -221,8 +221,10 @@ SceneOutcome run_scene(const DatasetScene& scene, const Model* model, const std:
             const std::vector<TruthDiagnosis> diagnoses =
                 diagnose_truth(*trace.described, *model, result, trace.hypotheses, truth, options.evaluation);
             for (std::size_t t = 0; t < diagnoses.size(); ++t)
-                if (!out.truth[t].found && diagnoses[t].stage != LossStage::found)
+                if (!out.truth[t].found && diagnoses[t].stage != LossStage::found) {
                     out.truth[t].lost = to_string(diagnoses[t].stage);
+                    out.truth[t].correct_correspondences = (long long)diagnoses[t].correct_correspondences;
+                }
         }
         out.scene_keypoints = result.counts.scene_keypoints;
         out.correspondences = result.counts.correspondences;
@@ -476,6 +478,7 @@ std::string to_json(const DatasetReport& report)
         for (const TruthOutcome& t : s.truth) {
             ordered_json item = {{"object", t.object}, {"visible_fraction", shortest_double(t.visible_fraction)}, {"found", t.found}};
             if (!t.lost.empty()) item["lost"] = t.lost;
+            if (t.correct_correspondences >= 0) item["correct_correspondences"] = t.correct_correspondences;
             truth.push_back(item);
         }
         const Evaluation& e = s.evaluation;

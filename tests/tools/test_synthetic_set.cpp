@@ -173,7 +173,8 @@ Dataset one_scene(const test::TempDir& dir, const std::string& preset, std::uint
 // wide, which a pose a degree off swings off the box's outline onto pixels that see the table).
 // --explain then names where each missed instance was lost: made to fail at each stage in turn by
 // its parameters (nothing matches, no Hough maximum is strong enough, no pose covers all of its
-// facing side), every instance the run misses is lost there, and none that it finds is said lost.
+// facing side), every instance the run misses is lost there, with the correct correspondences
+// grouping had, and none that it finds is said lost.
 TEST(SyntheticSet, TwoBoxesFoundAndWhereMissedOnesWereLost)
 {
     const test::TempDir dir;
@@ -195,6 +196,11 @@ TEST(SyntheticSet, TwoBoxesFoundAndWhereMissedOnesWereLost)
         for (const TruthOutcome& truth : report.scenes[0].truth) {
             EXPECT_EQ(truth.lost, truth.found ? "" : stage);
             lost += !truth.lost.empty();
+            // A lost instance says what grouping had: nothing when nothing matched, some when the
+            // maximum was too weak.
+            if (truth.lost.empty()) EXPECT_EQ(truth.correct_correspondences, -1);
+            if (stage == "no_correspondence" && !truth.found) EXPECT_EQ(truth.correct_correspondences, 0);
+            if (stage == "no_hypothesis" && !truth.found) EXPECT_GT(truth.correct_correspondences, 0);
         }
         EXPECT_EQ(lost, report.scenes[0].evaluation.instances_missed);
         if (stage.empty()) {

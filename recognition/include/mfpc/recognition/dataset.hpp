@@ -90,6 +90,9 @@ struct TruthOutcome {
     /// With DatasetOptions::explain, where a missed instance was lost (to_string(LossStage));
     /// empty when found or not explained.
     std::string lost;
+    /// With DatasetOptions::explain and `lost` set, the correspondences correct for it
+    /// (TruthDiagnosis::correct_correspondences); -1 when not explained.
+    long long correct_correspondences = -1;
 };
 
 /// @brief One scene run one way (plain or foveated).
