@@ -98,18 +98,22 @@ Pose fit_sample(const Point (&from)[3], const Point (&to)[3])
 
 // RANSAC over a cluster's correspondences (three at a time, a generator seeded by the cluster's
 // rank, so the result does not depend on threads or runs), then a least-squares fit on the largest
-// inlier set. Returns false when fewer than three correspondences agree.
-bool fit_instance(const Features& model, const Features& scene, std::vector<Correspondence> cluster,
-                  const GroupingParams& params, std::uint32_t seed, Instance& out)
+// inlier set. Returns false when fewer than three correspondences agree. `pool` lists the
+// cluster's correspondences the samples are drawn from (all of them for the first pose); the
+// inliers are counted over the whole cluster.
+bool fit_pose(const Features& model, const Features& scene, const std::vector<Correspondence>& cluster,
+              const std::vector<std::uint32_t>& pool, const GroupingParams& params, std::uint32_t seed,
+              Pose& pose_out, std::vector<std::uint32_t>& best)
 {
-    if (cluster.size() < 3) return false;
+    if (pool.size() < 3) return false;
     const float inlier2 = params.ransac_distance * params.ransac_distance;
     // Every correspondence is written and only inliers are kept (the count moves past them): the
     // branch it replaces went either way in clutter and was mispredicted often.
-    auto inliers_of = [&](const Pose& pose, std::vector<std::uint32_t>& inliers) {
-        inliers.resize(cluster.size());
+    auto inliers_of = [&](const Pose& pose, const std::vector<std::uint32_t>& among,
+                          std::vector<std::uint32_t>& inliers) {
+        inliers.resize(among.size());
         std::size_t count = 0;
-        for (std::uint32_t i = 0; i < cluster.size(); ++i) {
+        for (const std::uint32_t i : among) {
             const Point moved = pose * model.keypoints[cluster[i].model];
             inliers[count] = i;
             count += (moved - scene.keypoints[cluster[i].scene]).squaredNorm() <= inlier2;
@@ -117,17 +121,18 @@ bool fit_instance(const Features& model, const Features& scene, std::vector<Corr
         inliers.resize(count);
     };
     std::mt19937 rng(seed);
-    std::uniform_int_distribution<std::uint32_t> pick(0, std::uint32_t(cluster.size() - 1));
-    std::vector<std::uint32_t> best, current;
-    const int iterations = cluster.size() == 3 ? 1 : params.ransac_iterations;
+    std::uniform_int_distribution<std::uint32_t> pick(0, std::uint32_t(pool.size() - 1));
+    std::vector<std::uint32_t> current;
+    best.clear();
+    const int iterations = pool.size() == 3 ? 1 : params.ransac_iterations;
     for (int it = 0; it < iterations; ++it) {
         std::uint32_t a = 0, b = 1, c = 2;
-        if (cluster.size() > 3) {
+        if (pool.size() > 3) {
             a = pick(rng);
             do b = pick(rng); while (b == a);
             do c = pick(rng); while (c == a || c == b);
         }
-        const std::uint32_t sample[3] = {a, b, c};
+        const std::uint32_t sample[3] = {pool[a], pool[b], pool[c]};
         Point from[3], to[3];
         for (int j = 0; j < 3; ++j) {
             from[j] = model.keypoints[cluster[sample[j]].model];
@@ -135,11 +140,13 @@ bool fit_instance(const Features& model, const Features& scene, std::vector<Corr
         }
         // A degenerate (nearly collinear) sample fixes no rotation.
         if ((from[1] - from[0]).cross(from[2] - from[0]).norm() < 1e-6f) continue;
-        inliers_of(fit_sample(from, to), current);
+        inliers_of(fit_sample(from, to), pool, current);
         if (current.size() > best.size()) best = current;
-        if (best.size() == cluster.size()) break;
+        if (best.size() == pool.size()) break;
     }
     if (best.size() < 3) return false;
+    std::vector<std::uint32_t> all(cluster.size());
+    for (std::uint32_t i = 0; i < all.size(); ++i) all[i] = i;
     // Least squares on the inliers, then once more on the inliers of that pose.
     std::vector<Point> from, to;
     for (int round = 0; round < 2; ++round) {
@@ -149,14 +156,64 @@ bool fit_instance(const Features& model, const Features& scene, std::vector<Corr
             from.push_back(model.keypoints[cluster[i].model]);
             to.push_back(scene.keypoints[cluster[i].scene]);
         }
-        out.transform = fit_rigid(from, to);
-        inliers_of(out.transform, current);
+        pose_out = fit_rigid(from, to);
+        inliers_of(pose_out, all, current);
         if (current.size() < 3) return false;
         best = current;
     }
-    out.correspondences.clear();
-    for (std::uint32_t i : best) out.correspondences.push_back(cluster[i]);
     return true;
+}
+
+// The angle (degrees) of the rotation taking one pose's orientation to the other's.
+float angle_between(const Pose& a, const Pose& b)
+{
+    const Eigen::Matrix3f d = a.linear() * b.linear().transpose();
+    return std::acos(std::clamp((d.trace() - 1.0f) / 2.0f, -1.0f, 1.0f)) * (180.0f / 3.14159265f);
+}
+
+// Up to `modes` poses of one cluster, appended to `out`. A nearly symmetric object (a mug about its
+// axis, a box or a square carton by a quarter or half turn) draws votes at one place from several
+// poses, so a Hough cluster is often multimodal, and the mode with the most inliers is not always
+// the true one. Each further mode is fitted on the correspondences no earlier mode took; it is kept
+// when it has at least `mode_inlier_ratio` of the first mode's inliers and is turned at least
+// `mode_min_angle` from every earlier one, with the cluster's votes scaled by that ratio.
+// Verification chooses among them. Each mode draws from its own generator, derived from `seed`.
+void fit_instances(const Features& model, const Features& scene, const std::vector<Correspondence>& cluster,
+                   const GroupingParams& params, int modes, std::uint32_t seed, float votes,
+                   std::vector<Instance>& out)
+{
+    const std::size_t first = out.size();
+    std::vector<std::uint32_t> pool(cluster.size());
+    for (std::uint32_t i = 0; i < pool.size(); ++i) pool[i] = i;
+    std::vector<char> taken(cluster.size(), 0);
+    std::size_t first_inliers = 0;
+    for (int mode = 0; mode < modes; ++mode) {
+        Pose pose;
+        std::vector<std::uint32_t> inliers;
+        // A multiplicative-hash stride keeps the modes' generators apart from the next cluster's.
+        const std::uint32_t mode_seed = seed + 0x9E3779B9u * std::uint32_t(mode);
+        if (!fit_pose(model, scene, cluster, pool, params, mode_seed, pose, inliers)) break;
+        if (mode == 0) {
+            first_inliers = inliers.size();
+        } else {
+            if (float(inliers.size()) < params.mode_inlier_ratio * float(first_inliers)) break;
+            const bool distinct = std::none_of(out.begin() + std::ptrdiff_t(first), out.end(), [&](const Instance& o) {
+                return angle_between(o.transform, pose) < params.mode_min_angle;
+            });
+            if (!distinct) break;
+        }
+        Instance instance;
+        instance.transform = pose;
+        instance.votes = votes * float(inliers.size()) / float(first_inliers);
+        for (const std::uint32_t i : inliers) {
+            instance.correspondences.push_back(cluster[i]);
+            taken[i] = 1;
+        }
+        out.push_back(std::move(instance));
+        pool.clear();
+        for (std::uint32_t i = 0; i < cluster.size(); ++i)
+            if (!taken[i]) pool.push_back(i);
+    }
 }
 
 }  // namespace
@@ -263,18 +320,18 @@ std::vector<Instance> hough_grouping(const Features& model, const Features& scen
 
     // The clusters are fitted in parallel; each fit draws from its own generator, seeded by its
     // rank, so the instances do not depend on the threads.
-    std::vector<Instance> fitted(peaks.size());
-    std::vector<char> found(peaks.size(), 0);
+    std::vector<std::vector<Instance>> fitted(peaks.size());
     tbb::parallel_for(std::size_t(0), peaks.size(), [&](std::size_t rank) {
         std::vector<Correspondence> cluster;
         for (std::uint32_t v : voters[rank]) cluster.push_back(correspondences[v]);
-        found[rank] = fit_instance(model, scene, std::move(cluster), params, std::uint32_t(rank + 1), fitted[rank]);
-        fitted[rank].votes = peaks[rank].value;
+        fit_instances(model, scene, cluster, params, params.ransac_modes, std::uint32_t(rank + 1), peaks[rank].value,
+                      fitted[rank]);
     });
     std::vector<Instance> instances;
-    for (std::size_t rank = 0; rank < peaks.size(); ++rank) {
-        if (found[rank]) instances.push_back(std::move(fitted[rank]));
-    }
+    for (std::size_t rank = 0; rank < peaks.size(); ++rank)
+        for (Instance& instance : fitted[rank]) instances.push_back(std::move(instance));
+    std::stable_sort(instances.begin(), instances.end(),
+                     [](const Instance& a, const Instance& b) { return a.votes > b.votes; });
     return instances;
 }
 
@@ -314,9 +371,8 @@ std::vector<Instance> gc_grouping(const Features& model, const Features& scene,
         for (std::uint32_t m : members) taken[m] = 1;
         std::vector<Correspondence> cluster;
         for (std::uint32_t m : members) cluster.push_back(correspondences[m]);
-        Instance instance;
-        instance.votes = float(members.size());
-        if (fit_instance(model, scene, std::move(cluster), params, ++rank, instance)) instances.push_back(std::move(instance));
+        // Every member agrees with every other on its distances, so the cluster holds one pose.
+        fit_instances(model, scene, cluster, params, 1, ++rank, float(members.size()), instances);
     }
     std::stable_sort(instances.begin(), instances.end(),
                      [](const Instance& a, const Instance& b) { return a.votes > b.votes; });

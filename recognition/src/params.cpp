@@ -164,6 +164,12 @@ void check_recognition_params(const RecognitionParams& p, const std::string& sou
     if (p.grouping.ransac_iterations < 1 || p.grouping.ransac_iterations > 100000)
         throw Error(source + ": ransac_iterations",
                     "must lie in 1..100000, got " + std::to_string(p.grouping.ransac_iterations));
+    if (p.grouping.ransac_modes < 1 || p.grouping.ransac_modes > 16)
+        throw Error(source + ": ransac_modes", "must lie in 1..16, got " + std::to_string(p.grouping.ransac_modes));
+    check_fraction(p.grouping.mode_inlier_ratio, source, "mode_inlier_ratio");
+    if (!(p.grouping.mode_min_angle >= 0.0f && p.grouping.mode_min_angle <= 180.0f))
+        throw Error(source + ": mode_min_angle",
+                    "must lie in [0, 180] degrees, got " + format_number(p.grouping.mode_min_angle));
     if (p.refine.iterations < 0 || p.refine.iterations > 10000)
         throw Error(source + ": refine.iterations", "must lie in 0..10000");
     check_positive(p.refine.max_distance, source, "refine.max_distance");
@@ -219,6 +225,9 @@ RecognitionParams parse_recognition_params(std::string_view json_text, const std
         r.integer("gc_threshold", p.grouping.gc_threshold);
         r.number("ransac_distance", p.grouping.ransac_distance);
         r.integer("ransac_iterations", p.grouping.ransac_iterations);
+        r.integer("ransac_modes", p.grouping.ransac_modes);
+        r.number("mode_inlier_ratio", p.grouping.mode_inlier_ratio);
+        r.number("mode_min_angle", p.grouping.mode_min_angle);
         if (const json* refine = r.object("refine")) {
             ObjectReader q(*refine, "refine", source);
             q.boolean("enabled", p.refine.enabled);
@@ -279,6 +288,9 @@ std::string to_json(const RecognitionParams& p)
         {"gc_threshold", p.grouping.gc_threshold},
         {"ransac_distance", clean(p.grouping.ransac_distance)},
         {"ransac_iterations", p.grouping.ransac_iterations},
+        {"ransac_modes", p.grouping.ransac_modes},
+        {"mode_inlier_ratio", clean(p.grouping.mode_inlier_ratio)},
+        {"mode_min_angle", clean(p.grouping.mode_min_angle)},
         {"refine",
          {{"enabled", p.refine.enabled},
           {"iterations", p.refine.iterations},

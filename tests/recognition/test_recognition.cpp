@@ -210,6 +210,59 @@ TEST(HoughGrouping, FindsTwoPlantedInstancesAmongOutliers)
     }
 }
 
+// A nearly symmetric object at one place: its correspondences come from two poses, the second a
+// quarter turn about the model's centroid, so every vote lands in one maximum. ransac_modes 2 keeps
+// both poses, the second with its share of the votes; a further pose with too few inliers or too
+// small a turn is not one.
+TEST(HoughGrouping, FitsSeveralPosesOfOneMaximum)
+{
+    std::mt19937 rng(23);
+    std::uniform_real_distribution<float> unit(-0.08f, 0.08f);
+    Features model;
+    for (int i = 0; i < 60; ++i) {
+        model.keypoints.emplace_back(unit(rng), unit(rng), unit(rng));
+        model.frames.push_back(random_pose(rng).linear());
+    }
+    Point centroid = Point::Zero();
+    for (const Point& k : model.keypoints) centroid += k / float(model.keypoints.size());
+    const Pose truth = random_pose(rng);
+    Pose turn = Pose::Identity();
+    turn.linear() = Eigen::AngleAxisf(1.5707963f, Eigen::Vector3f::UnitZ()).toRotationMatrix();
+    turn.translation() = centroid - turn.linear() * centroid;
+    const Pose poses[2] = {truth, truth * turn};
+    Features scene;
+    std::vector<Correspondence> correspondences;
+    for (int copy = 0; copy < 2; ++copy) {
+        for (std::uint32_t i = 0; i < (copy == 0 ? 60u : 40u); ++i) {
+            scene.keypoints.push_back(poses[copy] * model.keypoints[i]);
+            scene.frames.push_back(model.frames[i] * poses[copy].linear().transpose());
+            correspondences.push_back({i, std::uint32_t(scene.keypoints.size() - 1), 0.1f});
+        }
+    }
+    GroupingParams params;
+    params.ransac_modes = 2;
+    const auto instances = hough_grouping(model, scene, correspondences, params);
+    ASSERT_EQ(instances.size(), 2u);
+    for (int copy = 0; copy < 2; ++copy) {
+        // A keypoint near the turn's axis fits both poses within ransac_distance and pulls the
+        // least-squares fit a little: a fraction of a millimetre and of a degree.
+        EXPECT_LT(translation_error(instances[copy].transform, poses[copy]), 1e-3f) << copy;
+        EXPECT_LT((instances[copy].transform.linear() - poses[copy].linear()).norm(), 1e-2f) << copy;
+        EXPECT_GE(instances[copy].correspondences.size(), copy == 0 ? 60u : 40u) << copy;
+    }
+    EXPECT_FLOAT_EQ(instances[1].votes, instances[0].votes * float(instances[1].correspondences.size()) /
+                                            float(instances[0].correspondences.size()));
+
+    params.ransac_modes = 1;
+    EXPECT_EQ(hough_grouping(model, scene, correspondences, params).size(), 1u);
+    params.ransac_modes = 2;
+    params.mode_inlier_ratio = 0.7f;  // 40 of 60 is less
+    EXPECT_EQ(hough_grouping(model, scene, correspondences, params).size(), 1u);
+    params.mode_inlier_ratio = 0.5f;
+    params.mode_min_angle = 100.0f;  // a quarter turn is less
+    EXPECT_EQ(hough_grouping(model, scene, correspondences, params).size(), 1u);
+}
+
 // Thousands of outliers scattered over a room put each of their votes in bins of their own, far
 // more bins than correspondences: the instances still stand out.
 TEST(HoughGrouping, FindsPlantedInstancesAmongScatteredVotes)
@@ -307,6 +360,11 @@ TEST(RecognitionParams, RejectsDuplicateKeysDeepNestingAndEndlessRansac)
     EXPECT_EQ(params_error(R"({"ransac_iterations": 0})"), "p.json: ransac_iterations: must lie in 1..100000, got 0");
     EXPECT_EQ(parse_recognition_params(R"({"ransac_iterations": 100000})", "p.json").grouping.ransac_iterations, 100000);
     EXPECT_EQ(parse_recognition_params(R"({"ransac_iterations": 1})", "p.json").grouping.ransac_iterations, 1);
+    EXPECT_EQ(params_error(R"({"ransac_modes": 0})"), "p.json: ransac_modes: must lie in 1..16, got 0");
+    EXPECT_EQ(params_error(R"({"mode_inlier_ratio": 1.5})"), "p.json: mode_inlier_ratio: must lie in [0, 1], got 1.5");
+    EXPECT_EQ(params_error(R"({"mode_min_angle": -1})"),
+              "p.json: mode_min_angle: must lie in [0, 180] degrees, got -1");
+    EXPECT_EQ(parse_recognition_params(R"({"ransac_modes": 3})", "p.json").grouping.ransac_modes, 3);
 }
 
 TEST(RecognitionParams, WorkingResolution)

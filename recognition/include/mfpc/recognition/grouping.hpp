@@ -17,7 +17,8 @@ namespace mfpc {
 /// it.
 struct Instance {
     Pose transform = Pose::Identity();            ///< Maps model coordinates into scene coordinates.
-    float votes = 0.0f;                          ///< Hough: interpolated votes of the maximum; GC: cluster size.
+    /// Hough: interpolated votes of the maximum (scaled for a further pose); GC: cluster size.
+    float votes = 0.0f;
     std::vector<Correspondence> correspondences;  ///< The consistent ones (pose fit inliers).
     float fitness = 0.0f;                        ///< After verification: inlier fraction (0 when not verified).
     float coverage = 0.0f;                      ///< Inlier model points / model points facing the camera.
@@ -34,12 +35,17 @@ struct Instance {
 /// Each correspondence casts a vote for the model's reference point (the centroid of the model
 /// keypoints), carried into the scene through the two BOARD frames; votes are interpolated over the
 /// 8 nearest bins of size hough_bin; every local maximum with at least hough_threshold votes is an
-/// instance, posed by RANSAC + least squares (Umeyama) on its voters. Deterministic.
+/// instance, posed by RANSAC + least squares (Umeyama) on its voters. A nearly symmetric object
+/// draws votes at one place from several poses, so up to ransac_modes poses are fitted per maximum:
+/// each further one by RANSAC on the voters no earlier pose took, kept when it has at least
+/// mode_inlier_ratio of the first pose's inliers and is turned at least mode_min_angle from the
+/// others, with the maximum's votes scaled by that ratio. Deterministic.
 /// @param model The model's features.
 /// @param scene The scene's features.
 /// @param correspondences Model-scene keypoint pairs, numbering the two features' keypoints.
-/// @param params hough_bin, hough_threshold and the RANSAC pose fit.
-/// @return The instances, sorted by votes (descending); none without correspondences.
+/// @param params hough_bin, hough_threshold, the RANSAC pose fit and its modes.
+/// @return The instances, sorted by votes (descending; a maximum's poses in the order found among
+/// equal votes); none without correspondences.
 /// @throws mfpc::Error for a correspondence beyond the model's or the scene's keypoints, or a
 /// hough_bin that is not positive.
 std::vector<Instance> hough_grouping(const Features& model, const Features& scene,

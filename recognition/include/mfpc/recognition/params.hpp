@@ -69,6 +69,11 @@ struct GroupingParams {
     int gc_threshold = 5;           ///< GC: minimum cluster size.
     float ransac_distance = 0.01f;  ///< Inlier distance of the per-instance pose fit (metres).
     int ransac_iterations = 500;    ///< RANSAC draws of the per-instance pose fit.
+    /// Hough: poses fitted per maximum (the modes of its cluster, see hough_grouping); 1: one, as
+    /// PCL. Two: a nearly symmetric object's cluster often holds its true pose second.
+    int ransac_modes = 2;
+    float mode_inlier_ratio = 0.5f;  ///< A further mode needs this fraction of the first one's inliers.
+    float mode_min_angle = 20.0f;    ///< A further mode is turned at least this far from the others (degrees).
 };
 
 /// @brief Refinement of each instance's pose by ICP onto the scene.
