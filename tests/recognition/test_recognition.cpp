@@ -164,17 +164,24 @@ TEST(DescribeKeypoints, BatchesUnderASmallSupportBudgetChangeNothing)
     }
 }
 
-// Two copies of a model keypoint set at known poses, with frames carried along, plus random
-// outlier correspondences: Hough voting must return both poses and nothing else.
-TEST(HoughGrouping, FindsTwoPlantedInstancesAmongOutliers)
+// A model of 60 keypoints within 8 cm of its origin, each with a frame of its own.
+Features random_model(std::mt19937& rng)
 {
-    std::mt19937 rng(9);
     std::uniform_real_distribution<float> unit(-0.08f, 0.08f);
     Features model;
     for (int i = 0; i < 60; ++i) {
         model.keypoints.emplace_back(unit(rng), unit(rng), unit(rng));
         model.frames.push_back(random_pose(rng).linear());
     }
+    return model;
+}
+
+// Two copies of a model keypoint set at known poses, with frames carried along, plus random
+// outlier correspondences: Hough voting must return both poses and nothing else.
+TEST(HoughGrouping, FindsTwoPlantedInstancesAmongOutliers)
+{
+    std::mt19937 rng(9);
+    const Features model = random_model(rng);
     const Pose poses[2] = {random_pose(rng), random_pose(rng)};
     Features scene;
     std::vector<Correspondence> correspondences;
@@ -217,12 +224,7 @@ TEST(HoughGrouping, FindsTwoPlantedInstancesAmongOutliers)
 TEST(HoughGrouping, FitsSeveralPosesOfOneMaximum)
 {
     std::mt19937 rng(23);
-    std::uniform_real_distribution<float> unit(-0.08f, 0.08f);
-    Features model;
-    for (int i = 0; i < 60; ++i) {
-        model.keypoints.emplace_back(unit(rng), unit(rng), unit(rng));
-        model.frames.push_back(random_pose(rng).linear());
-    }
+    const Features model = random_model(rng);
     Point centroid = Point::Zero();
     for (const Point& k : model.keypoints) centroid += k / float(model.keypoints.size());
     const Pose truth = random_pose(rng);
@@ -268,12 +270,8 @@ TEST(HoughGrouping, FitsSeveralPosesOfOneMaximum)
 TEST(HoughGrouping, FindsPlantedInstancesAmongScatteredVotes)
 {
     std::mt19937 rng(19);
-    std::uniform_real_distribution<float> unit(-0.08f, 0.08f), room(-2.0f, 2.0f);
-    Features model;
-    for (int i = 0; i < 60; ++i) {
-        model.keypoints.emplace_back(unit(rng), unit(rng), unit(rng));
-        model.frames.push_back(random_pose(rng).linear());
-    }
+    std::uniform_real_distribution<float> room(-2.0f, 2.0f);
+    const Features model = random_model(rng);
     const Pose pose = random_pose(rng);
     Features scene;
     std::vector<Correspondence> correspondences;
