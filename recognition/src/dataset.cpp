@@ -223,7 +223,7 @@ SceneOutcome run_scene(const DatasetScene& scene, const Model* model, const std:
             for (std::size_t t = 0; t < diagnoses.size(); ++t)
                 if (!out.truth[t].found && diagnoses[t].stage != LossStage::found) {
                     out.truth[t].lost = to_string(diagnoses[t].stage);
-                    out.truth[t].correct_correspondences = (long long)diagnoses[t].correct_correspondences;
+                    out.truth[t].correct_correspondences = static_cast<long long>(diagnoses[t].correct_correspondences);
                 }
         }
         out.scene_keypoints = result.counts.scene_keypoints;

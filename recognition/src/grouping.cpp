@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <numeric>
 #include <random>
 #include <string>
 
@@ -146,7 +147,7 @@ bool fit_pose(const Features& model, const Features& scene, const std::vector<Co
     }
     if (best.size() < 3) return false;
     std::vector<std::uint32_t> all(cluster.size());
-    for (std::uint32_t i = 0; i < all.size(); ++i) all[i] = i;
+    std::iota(all.begin(), all.end(), 0u);
     // Least squares on the inliers, then once more on the inliers of that pose.
     std::vector<Point> from, to;
     for (int round = 0; round < 2; ++round) {
@@ -164,13 +165,6 @@ bool fit_pose(const Features& model, const Features& scene, const std::vector<Co
     return true;
 }
 
-// The angle (degrees) of the rotation taking one pose's orientation to the other's.
-float angle_between(const Pose& a, const Pose& b)
-{
-    const Eigen::Matrix3f d = a.linear() * b.linear().transpose();
-    return std::acos(std::clamp((d.trace() - 1.0f) / 2.0f, -1.0f, 1.0f)) * (180.0f / 3.14159265f);
-}
-
 // Up to `modes` poses of one cluster, appended to `out`. A nearly symmetric object (a mug about its
 // axis, a box or a square carton by a quarter or half turn) draws votes at one place from several
 // poses, so a Hough cluster is often multimodal, and the mode with the most inliers is not always
@@ -184,7 +178,7 @@ void fit_instances(const Features& model, const Features& scene, const std::vect
 {
     const std::size_t first = out.size();
     std::vector<std::uint32_t> pool(cluster.size());
-    for (std::uint32_t i = 0; i < pool.size(); ++i) pool[i] = i;
+    std::iota(pool.begin(), pool.end(), 0u);
     std::vector<char> taken(cluster.size(), 0);
     std::size_t first_inliers = 0;
     for (int mode = 0; mode < modes; ++mode) {
@@ -198,7 +192,7 @@ void fit_instances(const Features& model, const Features& scene, const std::vect
         } else {
             if (float(inliers.size()) < params.mode_inlier_ratio * float(first_inliers)) break;
             const bool distinct = std::none_of(out.begin() + std::ptrdiff_t(first), out.end(), [&](const Instance& o) {
-                return angle_between(o.transform, pose) < params.mode_min_angle;
+                return rotation_error_deg(o.transform, pose) < params.mode_min_angle;
             });
             if (!distinct) break;
         }
@@ -210,9 +204,7 @@ void fit_instances(const Features& model, const Features& scene, const std::vect
             taken[i] = 1;
         }
         out.push_back(std::move(instance));
-        pool.clear();
-        for (std::uint32_t i = 0; i < cluster.size(); ++i)
-            if (!taken[i]) pool.push_back(i);
+        std::erase_if(pool, [&](std::uint32_t i) { return taken[i] != 0; });
     }
 }
 
